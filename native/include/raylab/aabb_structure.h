@@ -1,0 +1,61 @@
+// `aabb`: VRT's per-object bounding box. A ray that misses the box is ignored; otherwise every
+// triangle of the object is tested.
+#pragma once
+
+#include "raylab/box_intersection.h"
+#include "raylab/structure.h"
+#include "raylab/triangle_loop.h"
+
+namespace raylab {
+
+class AabbStructure final : public StructureBase<AabbStructure> {
+ public:
+  AabbStructure(MeshPtr mesh, const BuildSettings& settings)
+      : StructureBase(std::move(mesh), settings), box_(mesh_->bounds()) {}
+
+  template <class Recorder>
+  bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
+    record.ray();
+    if (!enter(ray, record)) return false;
+    const TriangleTester tester(ray, settings_.triangle_test);
+    Hit best = initial_hit(ray);
+    if (!closest_in_triangles(*mesh_, tester, uint32_t(mesh_->triangle_count()),
+                              [](uint32_t i) { return i; }, best, record))
+      return false;
+    hit = best;
+    return true;
+  }
+
+  template <class Recorder>
+  bool traverse_any(const Ray& ray, Recorder& record) const {
+    record.ray();
+    if (!enter(ray, record)) return false;
+    const TriangleTester tester(ray, settings_.triangle_test);
+    return any_in_triangles(*mesh_, tester, uint32_t(mesh_->triangle_count()),
+                            [](uint32_t i) { return i; }, ray.tmax, record);
+  }
+
+  std::vector<BoxInfo> boxes() const override {
+    if (box_.empty()) return {};
+    return {BoxInfo{box_, 0, true, uint32_t(mesh_->triangle_count())}};
+  }
+  size_t memory_bytes() const override { return sizeof(Bounds); }
+
+ private:
+  template <class Recorder>
+  bool enter(const Ray& ray, Recorder& record) const {
+    float t_entry = ray.tmin;
+    const bool hit = !box_.empty() && intersect_box(box_, BoxRay(ray), ray.tmax, t_entry);
+    record.box(0, box_, 0, hit, t_entry);
+    if (!hit) {
+      record.ignored();
+      return false;
+    }
+    record.node(0, 0);
+    return true;
+  }
+
+  Bounds box_;
+};
+
+}  // namespace raylab

@@ -1,0 +1,91 @@
+// Rays, hits, bounds and triangle meshes: the vocabulary every other header uses.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace raylab {
+
+inline constexpr float kInfinity = std::numeric_limits<float>::infinity();
+inline constexpr uint32_t kInvalidIndex = 0xffffffffu;
+
+struct Ray {
+  glm::vec3 origin{0.0f};
+  float tmin = 0.0f;
+  glm::vec3 direction{0.0f, 0.0f, 1.0f};
+  float tmax = kInfinity;
+
+  glm::vec3 at(float t) const { return origin + t * direction; }
+};
+
+struct Hit {
+  float t = kInfinity;
+  float u = 0.0f;  // barycentric weight of vertex 1
+  float v = 0.0f;  // barycentric weight of vertex 2
+  uint32_t triangle = kInvalidIndex;
+  uint32_t instance = kInvalidIndex;
+
+  bool valid() const { return triangle != kInvalidIndex; }
+};
+
+// Axis-aligned box; an empty box has lo > hi so that extending it by any point gives that point.
+struct Bounds {
+  glm::vec3 lo{kInfinity};
+  glm::vec3 hi{-kInfinity};
+
+  Bounds() = default;
+  Bounds(const glm::vec3& a, const glm::vec3& b) : lo(a), hi(b) {}
+
+  bool empty() const { return lo.x > hi.x || lo.y > hi.y || lo.z > hi.z; }
+  void extend(const glm::vec3& p) { lo = glm::min(lo, p); hi = glm::max(hi, p); }
+  void extend(const Bounds& b) { lo = glm::min(lo, b.lo); hi = glm::max(hi, b.hi); }
+  glm::vec3 extent() const { return hi - lo; }
+  glm::vec3 center() const { return 0.5f * (lo + hi); }
+  float surface_area() const {
+    if (empty()) return 0.0f;
+    glm::vec3 e = extent();
+    return 2.0f * (e.x * e.y + e.y * e.z + e.z * e.x);
+  }
+  int longest_axis() const {
+    glm::vec3 e = extent();
+    return (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
+  }
+  bool contains(const glm::vec3& p) const {
+    return p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z;
+  }
+};
+
+// Indexed triangle mesh in object space. Validation happens once, at construction from user data.
+struct TriangleMesh {
+  std::vector<glm::vec3> vertices;
+  std::vector<glm::uvec3> triangles;
+
+  size_t triangle_count() const { return triangles.size(); }
+  glm::vec3 vertex(uint32_t triangle, int corner) const { return vertices[triangles[triangle][corner]]; }
+  Bounds triangle_bounds(uint32_t triangle) const {
+    Bounds b;
+    for (int c = 0; c < 3; ++c) b.extend(vertex(triangle, c));
+    return b;
+  }
+  Bounds bounds() const {
+    Bounds b;
+    for (const glm::uvec3& tri : triangles)
+      for (int c = 0; c < 3; ++c) b.extend(vertices[tri[c]]);
+    return b;
+  }
+  size_t memory_bytes() const {
+    return vertices.capacity() * sizeof(glm::vec3) + triangles.capacity() * sizeof(glm::uvec3);
+  }
+  // Throws std::invalid_argument naming the first problem: an index out of range or a non-finite
+  // coordinate.
+  void validate() const;
+};
+
+using MeshPtr = std::shared_ptr<const TriangleMesh>;
+
+}  // namespace raylab

@@ -1,0 +1,122 @@
+// The one interface behind which the four acceleration structures live: none, aabb, octree, bvh.
+#pragma once
+
+#include "raylab/geometry.h"
+#include "raylab/traversal_record.h"
+#include "raylab/triangle_intersection.h"
+
+#include <cstddef>
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace raylab {
+
+enum class StructureKind { None, Aabb, Octree, Bvh };
+
+StructureKind structure_kind_from_name(const std::string& name);  // throws std::invalid_argument
+const char* structure_kind_name(StructureKind kind);
+
+struct BuildSettings {
+  StructureKind kind = StructureKind::Bvh;
+  int max_depth = 6;   // octree: depth 0 is the root alone
+  int leaf_size = 8;   // octree: split while a node holds more triangles than this; bvh: max per leaf
+  TriangleTest triangle_test = TriangleTest::Watertight;
+  size_t memory_budget = size_t(4) << 30;  // a build that would need more stops with BuildError
+
+  void validate() const;  // throws std::invalid_argument naming the bad setting
+};
+
+// A build that cannot be done within the settings (e.g. over the memory budget).
+struct BuildError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// One box of a structure, for drawing and teaching.
+struct BoxInfo {
+  Bounds bounds;
+  int depth;
+  bool leaf;
+  uint32_t triangle_count;  // triangles referenced by the node's subtree leaves (leaf: its own)
+};
+
+class Structure {
+ public:
+  virtual ~Structure() = default;
+
+  // Closest hit in (ray.tmin, ray.tmax]; false and `hit` untouched when nothing is hit.
+  virtual bool closest(const Ray& ray, Hit& hit) const = 0;
+  virtual bool closest(const Ray& ray, Hit& hit, TraversalStats& stats) const = 0;
+  // Any hit in (ray.tmin, ray.tmax]: the shadow-ray query.
+  virtual bool any(const Ray& ray) const = 0;
+  virtual bool any(const Ray& ray, TraversalStats& stats) const = 0;
+  // The whole story of one closest-hit query, recorded by the same traversal code.
+  virtual RayStory story(const Ray& ray) const = 0;
+
+  virtual std::vector<BoxInfo> boxes() const = 0;
+  virtual size_t memory_bytes() const = 0;  // the structure's own memory, without the mesh
+
+  StructureKind kind() const { return settings_.kind; }
+  const BuildSettings& settings() const { return settings_; }
+  const TriangleMesh& mesh() const { return *mesh_; }
+  const MeshPtr& mesh_ptr() const { return mesh_; }
+  double build_seconds() const { return build_seconds_; }
+
+ protected:
+  Structure(MeshPtr mesh, const BuildSettings& settings) : mesh_(std::move(mesh)), settings_(settings) {}
+  MeshPtr mesh_;
+  BuildSettings settings_;
+  double build_seconds_ = 0.0;
+  friend std::unique_ptr<Structure> build_structure(MeshPtr, const BuildSettings&);
+};
+
+// Implements the virtual queries once for each recorder by calling the derived class's templates:
+//   template <class Recorder> bool traverse_closest(const Ray&, Hit&, Recorder&) const;
+//   template <class Recorder> bool traverse_any(const Ray&, Recorder&) const;
+template <class Derived>
+class StructureBase : public Structure {
+ public:
+  bool closest(const Ray& ray, Hit& hit) const final {
+    NoRecord r;
+    return self().traverse_closest(ray, hit, r);
+  }
+  bool closest(const Ray& ray, Hit& hit, TraversalStats& stats) const final {
+    StatsRecord r{stats};
+    return self().traverse_closest(ray, hit, r);
+  }
+  bool any(const Ray& ray) const final {
+    NoRecord r;
+    return self().traverse_any(ray, r);
+  }
+  bool any(const Ray& ray, TraversalStats& stats) const final {
+    StatsRecord r{stats};
+    return self().traverse_any(ray, r);
+  }
+  RayStory story(const Ray& ray) const final {
+    RayStory s;
+    s.ray = ray;
+    StoryRecord r{s};
+    self().traverse_closest(ray, s.hit, r);
+    s.finish();
+    return s;
+  }
+
+ protected:
+  using Structure::Structure;
+
+ private:
+  const Derived& self() const { return static_cast<const Derived&>(*this); }
+};
+
+// Builds the structure named by settings.kind over `mesh` (validated first) and times the build.
+std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& settings);
+
+// Batch queries, parallel over rays (TBB). `stats` may be null: then nothing is counted.
+void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
+                       TraversalStats* stats);
+void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
+                   TraversalStats* stats);
+
+}  // namespace raylab

@@ -1,0 +1,124 @@
+// What a traversal reports about its work. Every structure writes one traversal template,
+// parameterised by a recorder; the three recorders below give the three uses of that one code path:
+//   NoRecord      the fast path: every call is empty and compiles away (counting off costs nothing);
+//   StatsRecord   the counters of DESIGN.md (rays, rays ignored, box tests, triangle tests, nodes);
+//   StoryRecord   the single-ray story the levels draw: every box, node and triangle in order.
+#pragma once
+
+#include "raylab/geometry.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace raylab {
+
+struct TraversalStats {
+  uint64_t rays = 0;
+  uint64_t rays_ignored = 0;  // rays that missed the root box (or the object's AABB)
+  uint64_t box_tests = 0;
+  uint64_t triangle_tests = 0;
+  uint64_t nodes_visited = 0;
+
+  TraversalStats& operator+=(const TraversalStats& o) {
+    rays += o.rays;
+    rays_ignored += o.rays_ignored;
+    box_tests += o.box_tests;
+    triangle_tests += o.triangle_tests;
+    nodes_visited += o.nodes_visited;
+    return *this;
+  }
+};
+
+// The recorder interface (duck-typed, resolved at compile time):
+//   ray()                                   once per query
+//   ignored()                               the ray missed the root box
+//   box(node, bounds, depth, hit, t_entry)  one ray/box test
+//   node(node, depth)                       a node entered (visited)
+//   triangle(index, hit)                    one ray/triangle test
+struct NoRecord {
+  static constexpr bool kActive = false;
+  void ray() {}
+  void ignored() {}
+  void box(uint32_t, const Bounds&, int, bool, float) {}
+  void node(uint32_t, int) {}
+  void triangle(uint32_t, bool) {}
+};
+
+struct StatsRecord {
+  static constexpr bool kActive = true;
+  TraversalStats& stats;
+  void ray() { ++stats.rays; }
+  void ignored() { ++stats.rays_ignored; }
+  void box(uint32_t, const Bounds&, int, bool, float) { ++stats.box_tests; }
+  void node(uint32_t, int) { ++stats.nodes_visited; }
+  void triangle(uint32_t, bool) { ++stats.triangle_tests; }
+};
+
+// What happened to one ray, in the four cases VRT's levels show.
+enum class RayStatus {
+  MissedRoot,         // ignored: missed the AABB / the root node; no triangle was tested
+  MissedNodes,        // hit the root box but entered no node that holds triangles
+  MissedTriangles,    // entered nodes holding triangles, tested them, hit none
+  HitObject,          // hit a triangle of the object
+};
+
+const char* ray_status_name(RayStatus status);
+
+struct StoryBox {
+  uint32_t node;
+  Bounds bounds;
+  int depth;
+  bool hit;
+  float t_entry;  // meaningful when hit
+};
+
+struct StoryNode {
+  uint32_t node;
+  int depth;
+};
+
+struct StoryTriangle {
+  uint32_t triangle;
+  bool hit;
+};
+
+struct RayStory {
+  Ray ray;
+  std::vector<StoryBox> boxes;          // in test order
+  std::vector<StoryNode> nodes;         // in visit order
+  std::vector<StoryTriangle> triangles; // in test order
+  Hit hit;
+  TraversalStats stats;
+  RayStatus status = RayStatus::MissedRoot;
+  bool ignored = false;
+
+  // Derives the status from what was recorded: the story, not a second computation.
+  void finish() {
+    if (hit.valid()) status = RayStatus::HitObject;
+    else if (ignored) status = RayStatus::MissedRoot;
+    else if (!triangles.empty()) status = RayStatus::MissedTriangles;
+    else status = RayStatus::MissedNodes;
+  }
+};
+
+struct StoryRecord {
+  static constexpr bool kActive = true;
+  RayStory& story;
+  void ray() { ++story.stats.rays; }
+  void ignored() { ++story.stats.rays_ignored; story.ignored = true; }
+  void box(uint32_t node, const Bounds& b, int depth, bool hit, float t_entry) {
+    ++story.stats.box_tests;
+    story.boxes.push_back({node, b, depth, hit, t_entry});
+  }
+  void node(uint32_t node, int depth) {
+    ++story.stats.nodes_visited;
+    story.nodes.push_back({node, depth});
+  }
+  void triangle(uint32_t index, bool hit) {
+    ++story.stats.triangle_tests;
+    story.triangles.push_back({index, hit});
+  }
+};
+
+}  // namespace raylab

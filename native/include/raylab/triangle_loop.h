@@ -1,0 +1,50 @@
+// The inner loop every structure shares: test a run of triangles against one ray.
+#pragma once
+
+#include "raylab/traversal_record.h"
+#include "raylab/triangle_intersection.h"
+
+namespace raylab {
+
+// Tests triangles index(0..count-1) and keeps the closest in `best` (best.t bounds the search).
+template <class Recorder, class IndexFn>
+inline bool closest_in_triangles(const TriangleMesh& mesh, const TriangleTester& tester, uint32_t count,
+                                 IndexFn index, Hit& best, Recorder& record) {
+  bool found = false;
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t tri = index(i);
+    TriangleHit th;
+    const bool hit = tester(mesh, tri, best.t, th);
+    record.triangle(tri, hit);
+    if (hit && closer(th, tri, best)) {
+      best.t = th.t;
+      best.u = th.u;
+      best.v = th.v;
+      best.triangle = tri;
+      found = true;
+    }
+  }
+  return found;
+}
+
+template <class Recorder, class IndexFn>
+inline bool any_in_triangles(const TriangleMesh& mesh, const TriangleTester& tester, uint32_t count,
+                             IndexFn index, float tmax, Recorder& record) {
+  for (uint32_t i = 0; i < count; ++i) {
+    const uint32_t tri = index(i);
+    TriangleHit th;
+    const bool hit = tester(mesh, tri, tmax, th);
+    record.triangle(tri, hit);
+    if (hit) return true;
+  }
+  return false;
+}
+
+// The search state a closest-hit traversal starts from.
+inline Hit initial_hit(const Ray& ray) {
+  Hit h;
+  h.t = ray.tmax;
+  return h;
+}
+
+}  // namespace raylab
