@@ -1,4 +1,8 @@
-#include <pybind11/pybind11.h>
-namespace py = pybind11;
-// Placeholder until the bindings land.
-PYBIND11_MODULE(_raylab, m) { m.attr("__version__") = "0.1.0"; }
+// The `_raylab` extension module; the pieces live one concept per file and register here.
+#include "bindings.h"
+
+PYBIND11_MODULE(_raylab, m) {
+  m.doc() = "raylab native core: acceleration structures, scenes and the renderer";
+  raylab::python::bind_core(m);
+  raylab::python::bind_render(m);
+}

@@ -1,0 +1,28 @@
+"""raylab: see, and measure, ray-tracing acceleration structures.
+
+The same package is the Blender add-on (bl_info, register, unregister) and the plain-Python API
+(`import raylab` from /usr/bin/python3 with addon/ on sys.path). Nothing here imports bpy at import
+time, so the API works outside Blender.
+"""
+
+bl_info = {
+    "name": "raylab",
+    "author": "raylab developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "View3D > Sidebar > raylab; Render Engine: raylab",
+    "description": "See and measure ray-tracing acceleration structures (AABB, octree, BVH)",
+    "category": "Render",
+}
+
+from .api import *  # noqa: E402,F401,F403  the Python API (numpy in, numpy out)
+
+
+def register():
+    from . import blender
+    blender.register()
+
+
+def unregister():
+    from . import blender
+    blender.unregister()

@@ -1,0 +1,21 @@
+"""The Blender side of raylab: one module per role, each with register() and unregister().
+
+Add your module to MODULES (order matters: properties before what uses them).
+"""
+import importlib
+
+MODULES = []
+
+
+def _modules():
+    return [importlib.import_module(f".{name}", __name__) for name in MODULES]
+
+
+def register():
+    for module in _modules():
+        module.register()
+
+
+def unregister():
+    for module in reversed(_modules()):
+        module.unregister()

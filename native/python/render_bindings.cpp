@@ -1,0 +1,3 @@
+#include "bindings.h"
+// Placeholder until the renderer bindings land.
+void raylab::python::bind_render(pybind11::module_&) {}
