@@ -1,2 +1,136 @@
-"""The Python API over the native module. Placeholder until the core bindings land."""
-from . import _raylab  # noqa: F401
+"""The Python API of raylab: numpy in, numpy out; the native core does the work with the GIL released.
+
+    V, T = raylab.load_mesh(path)                    # (V,3) float32, (T,3) uint32
+    s = raylab.build(V, T, structure="bvh")          # "none" | "aabb" | "octree" | "bvh"
+    h = s.intersect(origins, directions)             # closest hits of N rays
+    o = s.occluded(origins, directions)              # any hit (shadow rays)
+    st = s.story(origin, direction)                  # everything one ray did
+    b = s.boxes()                                    # the boxes, for drawing
+
+Bad input raises ValueError naming the problem; a build over the memory budget raises BuildError.
+"""
+import math
+import os
+
+from . import _raylab
+
+__all__ = [
+    "STRUCTURES", "TRIANGLE_TESTS", "BuildError", "load_mesh", "build", "build_file",
+    "Structure", "Hits", "Occlusion", "RayStory",
+]
+
+STRUCTURES = ("none", "aabb", "octree", "bvh")
+TRIANGLE_TESTS = ("watertight", "moller_trumbore")
+BuildError = _raylab.BuildError
+
+class _Record:
+    """Named fields filled from the native module's dict."""
+
+    __slots__ = ()
+
+    def __init__(self, fields):
+        for name in self.__slots__:
+            setattr(self, name, fields[name])
+
+    def __repr__(self):
+        return f"{type(self).__name__}({', '.join(self.__slots__)})"
+
+
+class Hits(_Record):
+    """Closest hits of N rays: t (inf on miss), triangle, u, v, instance (-1 on miss), hit, stats."""
+
+    __slots__ = ("t", "triangle", "u", "v", "instance", "hit", "stats")
+
+    def __len__(self):
+        return len(self.t)
+
+
+class Occlusion(_Record):
+    """Any-hit results of N rays: hit (N,) bool, stats."""
+
+    __slots__ = ("hit", "stats")
+
+    def __len__(self):
+        return len(self.hit)
+
+
+class RayStory(_Record):
+    """What one ray did, in order: status, boxes tested, nodes visited, triangles tested, hit, stats.
+
+    status is "missed_root", "missed_nodes", "missed_triangles" or "hit_object".
+    """
+
+    __slots__ = ("status", "boxes", "nodes", "node_depths", "triangles", "triangle_hits", "hit", "stats")
+
+
+def _path(path):
+    return os.fspath(path)
+
+
+def load_mesh(path):
+    """Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles). OSError if unreadable."""
+    return _raylab.load_mesh(_path(path))
+
+
+class Structure:
+    """An acceleration structure over one mesh, built by build() or build_file()."""
+
+    __slots__ = ("native",)
+
+    def __init__(self, native):
+        self.native = native  # the _raylab.Structure; other native parts (the renderer) take it
+
+    structure = property(lambda self: self.native.structure, doc="none, aabb, octree or bvh")
+    build_seconds = property(lambda self: self.native.build_seconds)
+    memory_bytes = property(lambda self: self.native.memory_bytes, doc="the structure's own bytes, without the mesh")
+    triangle_count = property(lambda self: self.native.triangle_count)
+    vertex_count = property(lambda self: self.native.vertex_count)
+    max_depth = property(lambda self: self.native.max_depth)
+    leaf_size = property(lambda self: self.native.leaf_size)
+    triangle_test = property(lambda self: self.native.triangle_test)
+
+    def mesh(self):
+        """A copy of the mesh: ((V,3) float32, (T,3) uint32)."""
+        return self.native.mesh
+
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
+        """Closest hits in (tmin, tmax] of rays given as (N,3) origins and directions (either may be
+        one (3,) row shared by all rays). Returns Hits. With count=True, h.stats is a dict
+        {rays, rays_ignored, box_tests, triangle_tests, nodes_visited}; otherwise None."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count))
+
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
+        """Whether anything is hit in (tmin, tmax]: the shadow-ray query. Returns Occlusion."""
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count))
+
+    def boxes(self):
+        """The boxes: dict lo (B,3) f32, hi (B,3) f32, depth (B,) i32, leaf (B,) bool, triangle_count (B,) u32."""
+        return self.native.boxes()
+
+    def story(self, origin, direction, tmin=0.0, tmax=math.inf):
+        """The whole closest-hit story of one ray given as (3,) origin and direction."""
+        return RayStory(self.native.story(origin, direction, tmin, tmax))
+
+    def __repr__(self):
+        return (f"<raylab.Structure {self.structure}: {self.triangle_count} triangles, "
+                f"{self.memory_bytes} bytes, built in {self.build_seconds:.3f} s>")
+
+
+def build(vertices, triangles, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
+          memory_budget=None):
+    """Builds a structure over (V,3) float32 vertices and (T,3) uint32 triangles.
+
+    Other real dtypes are converted (vertices to float32); negative or out-of-range indices, NaN or
+    infinite coordinates, wrong shapes and impossible settings raise ValueError. max_depth is the
+    octree's depth (0 = root only); leaf_size the triangles per octree or BVH leaf; memory_budget
+    the bytes a build may use (None = 4 GiB), beyond which it raises BuildError.
+    """
+    return Structure(_raylab.build(vertices, triangles, structure, max_depth, leaf_size, triangle_test,
+                                   memory_budget))
+
+
+def build_file(path, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
+               memory_budget=None):
+    """build() over the mesh read from an OBJ file."""
+    return Structure(_raylab.build_file(_path(path), structure, max_depth, leaf_size, triangle_test,
+                                        memory_budget))

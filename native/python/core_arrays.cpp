@@ -1,0 +1,218 @@
+#include "core_arrays.h"
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+namespace raylab::python {
+
+namespace {
+
+using FloatRows = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+std::string shape_text(const py::array& a) {
+  std::string s = "(";
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) s += (i ? ", " : "") + std::to_string(a.shape(i));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+py::array as_array(py::handle obj, const char* what) {
+  if (obj.is_none()) throw std::invalid_argument(std::string(what) + " must be an array, got None");
+  py::array a = py::array::ensure(obj);  // a null handle when numpy cannot make an array of it
+  if (!a) throw std::invalid_argument(std::string(what) + " cannot be read as a numpy array");
+  return a;
+}
+
+char dtype_kind(const py::array& a) { return a.dtype().kind(); }
+
+// Accepts float, signed and unsigned integer dtypes (converted to float32); rejects bool, complex,
+// object and strings. `single_row_ok` also accepts a (3,) array.
+FloatRows float_rows(py::handle obj, const char* what, bool single_row_ok) {
+  py::array a = as_array(obj, what);
+  const bool rows = a.ndim() == 2 && a.shape(1) == 3;
+  const bool single = single_row_ok && a.ndim() == 1 && a.shape(0) == 3;
+  if (!rows && !single)
+    throw std::invalid_argument(std::string(what) + " must have shape (N, 3)" +
+                                (single_row_ok ? " or (3,)" : "") + ", got " + shape_text(a));
+  const char k = dtype_kind(a);
+  if (k != 'f' && k != 'i' && k != 'u')
+    throw std::invalid_argument(std::string(what) + " must have a real number dtype (float32 preferred), got " +
+                                std::string(py::str(a.dtype())));
+  return FloatRows::ensure(a);
+}
+
+template <class Index>
+void read_triangles(const py::array& a, std::vector<glm::uvec3>& out) {
+  auto idx = py::array_t<Index, py::array::c_style | py::array::forcecast>::ensure(a);
+  const Index* p = idx.data();
+  const size_t n = size_t(idx.shape(0));
+  out.resize(n);
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      const Index k = p[3 * i + c];
+      if constexpr (std::is_signed_v<Index>)
+        if (k < 0)
+          throw std::invalid_argument("triangle " + std::to_string(i) + " has a negative vertex index " +
+                                      std::to_string(k));
+      // Larger than any uint32 index: out of range whatever the vertex count; say so before narrowing.
+      if (uint64_t(k) >= uint64_t(kInvalidIndex))
+        throw std::invalid_argument("triangle " + std::to_string(i) + " refers to vertex " + std::to_string(k) +
+                                    ", beyond any mesh");
+      out[i][c] = uint32_t(k);
+    }
+}
+
+void check_ray_row(const float* p, size_t ray, const char* what) {
+  if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+    throw std::invalid_argument(std::string(what) + " of ray " + std::to_string(ray) +
+                                " has a NaN or infinite coordinate");
+}
+
+void check_interval(double tmin, double tmax) {
+  if (std::isnan(tmin) || std::isnan(tmax)) throw std::invalid_argument("tmin and tmax must not be NaN");
+  if (tmin > tmax)
+    throw std::invalid_argument("tmin (" + std::to_string(tmin) + ") is greater than tmax (" +
+                                std::to_string(tmax) + ")");
+}
+
+Ray make_ray(const float* o, const float* d, size_t index, double tmin, double tmax) {
+  check_ray_row(o, index, "origin");
+  check_ray_row(d, index, "direction");
+  if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f)
+    throw std::invalid_argument("direction of ray " + std::to_string(index) + " has zero length");
+  Ray r;
+  r.origin = {o[0], o[1], o[2]};
+  r.direction = {d[0], d[1], d[2]};
+  r.tmin = float(tmin);
+  r.tmax = float(tmax);
+  return r;
+}
+
+}  // namespace
+
+MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles) {
+  FloatRows v = float_rows(vertices, "vertices", false);
+  py::array t = as_array(triangles, "triangles");
+  if (!(t.ndim() == 2 && t.shape(1) == 3))
+    throw std::invalid_argument("triangles must have shape (T, 3), got " + shape_text(t));
+  const char k = dtype_kind(t);
+  if (k != 'i' && k != 'u')
+    throw std::invalid_argument("triangles must have an integer dtype (uint32 preferred), got " +
+                                std::string(py::str(t.dtype())));
+
+  auto mesh = std::make_shared<TriangleMesh>();
+  const float* p = v.data();
+  mesh->vertices.resize(size_t(v.shape(0)));
+  for (size_t i = 0; i < mesh->vertices.size(); ++i) mesh->vertices[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
+  if (k == 'u') read_triangles<uint64_t>(t, mesh->triangles);
+  else read_triangles<int64_t>(t, mesh->triangles);
+  mesh->validate();
+  return mesh;
+}
+
+const char* triangle_test_name(TriangleTest test) {
+  return test == TriangleTest::Watertight ? "watertight" : "moller_trumbore";
+}
+
+BuildSettings settings_from_arguments(const std::string& structure, int max_depth, int leaf_size,
+                                      const std::string& triangle_test, py::handle memory_budget) {
+  BuildSettings s;
+  s.kind = structure_kind_from_name(structure);
+  s.max_depth = max_depth;
+  s.leaf_size = leaf_size;
+  if (triangle_test == "watertight") s.triangle_test = TriangleTest::Watertight;
+  else if (triangle_test == "moller_trumbore") s.triangle_test = TriangleTest::MollerTrumbore;
+  else
+    throw std::invalid_argument("unknown triangle_test '" + triangle_test +
+                                "': expected watertight or moller_trumbore");
+  if (!memory_budget.is_none()) {
+    if (!py::isinstance<py::int_>(memory_budget) || py::isinstance<py::bool_>(memory_budget))
+      throw std::invalid_argument("memory_budget must be a whole number of bytes or None");
+    const py::int_ budget = py::reinterpret_borrow<py::int_>(memory_budget);
+    if (budget < py::int_(1))
+      throw std::invalid_argument("memory_budget must be positive, got " + std::string(py::repr(budget)));
+    // Anything beyond size_t is no limit at all.
+    s.memory_budget = budget > py::int_(std::numeric_limits<size_t>::max()) ? std::numeric_limits<size_t>::max()
+                                                                            : budget.cast<size_t>();
+  }
+  s.validate();
+  return s;
+}
+
+std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, double tmin, double tmax) {
+  check_interval(tmin, tmax);
+  FloatRows o = float_rows(origins, "origins", true);
+  FloatRows d = float_rows(directions, "directions", true);
+  const size_t no = o.ndim() == 2 ? size_t(o.shape(0)) : 1;
+  const size_t nd = d.ndim() == 2 ? size_t(d.shape(0)) : 1;
+  // A (3,) row is shared by every ray: stride 0.
+  const size_t so = o.ndim() == 2 ? 3 : 0, sd = d.ndim() == 2 ? 3 : 0;
+  if (o.ndim() == 2 && d.ndim() == 2 && no != nd)
+    throw std::invalid_argument("origins and directions differ in length: " + std::to_string(no) + " and " +
+                                std::to_string(nd));
+  const size_t n = o.ndim() == 2 ? no : nd;
+  std::vector<Ray> rays(n);
+  for (size_t i = 0; i < n; ++i) rays[i] = make_ray(o.data() + so * i, d.data() + sd * i, i, tmin, tmax);
+  return rays;
+}
+
+Ray ray_from_arrays(py::handle origin, py::handle direction, double tmin, double tmax) {
+  check_interval(tmin, tmax);
+  FloatRows o = float_rows(origin, "origin", true);
+  FloatRows d = float_rows(direction, "direction", true);
+  if (o.ndim() != 1 || d.ndim() != 1)
+    throw std::invalid_argument("origin and direction of one ray must have shape (3,)");
+  return make_ray(o.data(), d.data(), 0, tmin, tmax);
+}
+
+py::dict hits_to_dict(const std::vector<Hit>& hits, bool single_instance) {
+  const py::ssize_t n = py::ssize_t(hits.size());
+  py::array_t<float> t(n), u(n), v(n);
+  py::array_t<int32_t> triangle(n), instance(n);
+  py::array_t<bool> hit(n);
+  float *pt = t.mutable_data(), *pu = u.mutable_data(), *pv = v.mutable_data();
+  int32_t *ptri = triangle.mutable_data(), *pinst = instance.mutable_data();
+  bool* phit = hit.mutable_data();
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const Hit& h = hits[size_t(i)];
+    const bool valid = h.valid();
+    pt[i] = valid ? h.t : kInfinity;
+    pu[i] = valid ? h.u : 0.0f;
+    pv[i] = valid ? h.v : 0.0f;
+    ptri[i] = valid ? int32_t(h.triangle) : -1;
+    pinst[i] = !valid ? -1 : single_instance ? 0 : int32_t(h.instance);
+    phit[i] = valid;
+  }
+  py::dict d;
+  d["t"] = t;
+  d["triangle"] = triangle;
+  d["u"] = u;
+  d["v"] = v;
+  d["instance"] = instance;
+  d["hit"] = hit;
+  return d;
+}
+
+py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded) {
+  py::array_t<bool> hit(py::ssize_t(occluded.size()));
+  bool* p = hit.mutable_data();
+  for (size_t i = 0; i < occluded.size(); ++i) p[i] = occluded[i] != 0;
+  py::dict d;
+  d["hit"] = hit;
+  return d;
+}
+
+py::dict stats_to_dict(const TraversalStats& s) {
+  py::dict d;
+  d["rays"] = s.rays;
+  d["rays_ignored"] = s.rays_ignored;
+  d["box_tests"] = s.box_tests;
+  d["triangle_tests"] = s.triangle_tests;
+  d["nodes_visited"] = s.nodes_visited;
+  return d;
+}
+
+}  // namespace raylab::python

@@ -1,0 +1,39 @@
+// numpy <-> core conversions shared by the core bindings (structures and scenes). Every check on
+// user data happens here, with the GIL held, so that native code only ever sees valid input and a
+// mistake becomes a ValueError that names it instead of a crash.
+#pragma once
+
+#include "raylab/geometry.h"
+#include "raylab/structure.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <vector>
+
+namespace raylab::python {
+
+namespace py = pybind11;
+
+// (V,3) real vertices and (T,3) integer triangles -> a validated mesh. Other real dtypes are
+// converted to float32; negative or out-of-range indices and non-finite coordinates raise.
+MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles);
+
+// The keywords every build takes -> validated settings (unknown names and bad values raise).
+BuildSettings settings_from_arguments(const std::string& structure, int max_depth, int leaf_size,
+                                      const std::string& triangle_test, py::handle memory_budget);
+
+// (N,3) origins and directions; either may be a single (3,) row shared by all rays.
+std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, double tmin, double tmax);
+// One ray from (3,) origin and direction.
+Ray ray_from_arrays(py::handle origin, py::handle direction, double tmin, double tmax);
+
+// Closest hits as numpy arrays: t, triangle, u, v, instance, hit. `single_instance` reports
+// instance 0 for every hit (a lone structure has no instance of its own).
+py::dict hits_to_dict(const std::vector<Hit>& hits, bool single_instance);
+py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded);
+py::dict stats_to_dict(const TraversalStats& stats);
+
+const char* triangle_test_name(TriangleTest test);
+
+}  // namespace raylab::python
