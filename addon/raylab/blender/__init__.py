@@ -4,7 +4,7 @@ Add your module to MODULES (order matters: properties before what uses them).
 """
 import importlib
 
-MODULES = []
+MODULES = ["render_properties", "render_engine", "compare"]
 
 
 def _modules():

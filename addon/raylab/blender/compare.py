@@ -1,0 +1,86 @@
+"""Render the active scene once per acceleration structure and compare what each costs and saves."""
+import bpy
+
+import raylab
+
+from .render_engine import human_count, id_property_stats, render_exported
+from .scene_export import export_scene
+
+
+def compare_structures(exported, props, super_sampling=None, structures=raylab.STRUCTURES):
+    """Render one export with every structure: [(structure, raylab render result)], in order."""
+    return [(structure, render_exported(exported, props, structure=structure, super_sampling=super_sampling))
+            for structure in structures]
+
+
+class RAYLAB_OT_compare_structures(bpy.types.Operator):
+    """Render the scene with every acceleration structure and compare time, tests and memory"""
+    bl_idname = "raylab.compare_structures"
+    bl_label = "Compare Structures"
+    bl_options = {'REGISTER'}
+
+    def execute(self, context):
+        scene = context.scene
+        props = scene.raylab_render
+        try:
+            exported = export_scene(context.evaluated_depsgraph_get())
+            results = compare_structures(exported, props)
+        except (ValueError, raylab.BuildError) as error:
+            self.report({'ERROR'}, f"raylab: {error}")
+            return {'CANCELLED'}
+        scene["raylab_comparison"] = {structure: id_property_stats(result.stats, props.super_sampling)
+                                      for structure, result in results}
+        fastest = min(results, key=lambda item: item[1].stats["render_seconds"])[0]
+        self.report({'INFO'}, f"raylab: compared {len(results)} structures; fastest render: {fastest}")
+        return {'FINISHED'}
+
+
+# (column title, formatter of a comparison row)
+COLUMNS = (("Build s", lambda r: f"{r['build_seconds']:.3f}"),
+           ("Render s", lambda r: f"{r['render_seconds']:.2f}"),
+           ("Rays", lambda r: human_count(r["rays_primary"] + r["rays_shadow"] + r["rays_reflection"]
+                                          + r["rays_refraction"])),
+           ("Box tests", lambda r: human_count(r["box_tests"])),
+           ("Tri tests", lambda r: human_count(r["triangle_tests"])),
+           ("Ignored", lambda r: human_count(r["rays_ignored"])),
+           ("Memory", lambda r: f"{r['memory_bytes'] / 1024:.0f} KiB"))
+
+
+class RAYLAB_PT_comparison(bpy.types.Panel):
+    bl_label = "Structure Comparison"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "raylab"
+
+    def draw(self, context):
+        layout = self.layout
+        scene = context.scene
+        props = scene.raylab_render
+        layout.prop(props, "super_sampling")
+        layout.operator(RAYLAB_OT_compare_structures.bl_idname, icon='RENDER_STILL')
+        table = scene.get("raylab_comparison")
+        if not table:
+            return
+        first = next(iter(table.values()))
+        layout.label(text=f"{first['width']} x {first['height']} px, super sampling {first['super_sampling']}")
+        grid = layout.grid_flow(row_major=True, columns=len(table) + 1, even_columns=False, align=True)
+        grid.label(text="")
+        for structure in table.keys():
+            grid.label(text=structure)
+        for title, cell in COLUMNS:
+            grid.label(text=title)
+            for row in table.values():
+                grid.label(text=cell(row))
+
+
+CLASSES = (RAYLAB_OT_compare_structures, RAYLAB_PT_comparison)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)
