@@ -1,0 +1,124 @@
+#include "embree_tracer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+
+#include <chrono>
+#include <stdexcept>
+#include <string>
+
+namespace raylab::bench {
+
+namespace {
+
+// Embree asks for flush-to-zero and denormals-are-zero in every tracing thread. TBB's worker
+// threads also run raylab's traversals, so the previous mode is restored after each chunk:
+// raylab is measured in default IEEE mode.
+class DenormalsOff {
+ public:
+  DenormalsOff() : saved_(_mm_getcsr()) {
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  }
+  ~DenormalsOff() { _mm_setcsr(saved_); }
+
+ private:
+  unsigned saved_;
+};
+
+constexpr size_t kGrain = 256;
+
+}  // namespace
+
+EmbreeTracer::EmbreeTracer(const TriangleMesh& mesh) : mesh_(mesh) {
+  device_ = rtcNewDevice(nullptr);
+  if (!device_) throw std::runtime_error("rtcNewDevice failed: " + std::to_string(int(rtcGetDeviceError(nullptr))));
+  rtcSetDeviceMemoryMonitorFunction(device_, &EmbreeTracer::monitor, this);
+  padded_vertices_.assign(mesh.vertices.size() * 3 + 4, 0.0f);
+  for (size_t i = 0; i < mesh.vertices.size(); ++i)
+    for (int c = 0; c < 3; ++c) padded_vertices_[3 * i + c] = mesh.vertices[i][c];
+}
+
+EmbreeTracer::~EmbreeTracer() {
+  if (scene_) rtcReleaseScene(scene_);
+  rtcReleaseDevice(device_);
+}
+
+bool EmbreeTracer::monitor(void* self, ssize_t bytes, bool) {
+  static_cast<EmbreeTracer*>(self)->allocated_ += bytes;
+  return true;
+}
+
+double EmbreeTracer::build(RTCBuildQuality quality) {
+  if (scene_) rtcReleaseScene(scene_);
+  const int64_t before = allocated_;
+  scene_ = rtcNewScene(device_);
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(scene_, quality);
+  RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetGeometryBuildQuality(geometry, quality);
+  rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, padded_vertices_.data(), 0,
+                             3 * sizeof(float), mesh_.vertices.size());
+  rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, mesh_.triangles.data(), 0,
+                             3 * sizeof(uint32_t), mesh_.triangles.size());
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometry(scene_, geometry);
+  rtcReleaseGeometry(geometry);
+  const auto start = std::chrono::steady_clock::now();
+  rtcCommitScene(scene_);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw std::runtime_error("Embree scene build failed");
+  scene_bytes_ = size_t(std::max<int64_t>(0, allocated_ - before));
+  return seconds;
+}
+
+void EmbreeTracer::closest(std::span<const Ray> rays, std::span<Hit> hits) const {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    DenormalsOff mode;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const Ray& ray = rays[i];
+      RTCRayHit rh;
+      rh.ray.org_x = ray.origin.x, rh.ray.org_y = ray.origin.y, rh.ray.org_z = ray.origin.z;
+      rh.ray.dir_x = ray.direction.x, rh.ray.dir_y = ray.direction.y, rh.ray.dir_z = ray.direction.z;
+      rh.ray.tnear = ray.tmin, rh.ray.tfar = ray.tmax;
+      rh.ray.time = 0.0f, rh.ray.mask = 0xffffffffu, rh.ray.id = 0, rh.ray.flags = 0;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(scene_, &context, &rh);
+      Hit h;
+      if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+        h.t = rh.ray.tfar;
+        h.u = rh.hit.u;
+        h.v = rh.hit.v;
+        h.triangle = rh.hit.primID;
+        h.instance = 0;
+      }
+      hits[i] = h;
+    }
+  });
+}
+
+void EmbreeTracer::any(std::span<const Ray> rays, std::span<uint8_t> occluded) const {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), kGrain), [&](const tbb::blocked_range<size_t>& r) {
+    DenormalsOff mode;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const Ray& ray = rays[i];
+      RTCRay rr;
+      rr.org_x = ray.origin.x, rr.org_y = ray.origin.y, rr.org_z = ray.origin.z;
+      rr.dir_x = ray.direction.x, rr.dir_y = ray.direction.y, rr.dir_z = ray.direction.z;
+      rr.tnear = ray.tmin, rr.tfar = ray.tmax;
+      rr.time = 0.0f, rr.mask = 0xffffffffu, rr.id = 0, rr.flags = 0;
+      rtcOccluded1(scene_, &context, &rr);
+      occluded[i] = rr.tfar == -kInfinity;  // Embree marks an occluded ray by tfar = -inf
+    }
+  });
+}
+
+}  // namespace raylab::bench
