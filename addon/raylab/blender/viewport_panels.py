@@ -1,0 +1,117 @@
+"""The 3D viewport sidebar tab "raylab": Structure, Probe and Last render panels."""
+import bpy
+
+from . import probe, structure_cache
+
+
+class _RaylabPanel:
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "raylab"
+
+
+class RAYLAB_PT_structure(_RaylabPanel, bpy.types.Panel):
+    bl_label = "Structure"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.raylab, "show", text="")
+
+    def draw(self, context):
+        settings = context.scene.raylab
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(settings, "structure")
+        column = layout.column()
+        column.active = settings.structure == "octree"
+        column.prop(settings, "max_depth")
+        column = layout.column()
+        column.active = settings.structure in ("octree", "bvh")
+        column.prop(settings, "leaf_size")
+        layout.prop(settings, "objects")
+        layout.prop(settings, "color_by_depth")
+        row = layout.row()
+        row.active = not settings.color_by_depth
+        row.prop(settings, "line_color")
+        column = layout.column(align=True)
+        column.prop(settings, "depth_min")
+        column.prop(settings, "depth_max")
+        layout.prop(settings, "leaves_only")
+        layout.prop(settings, "xray")
+        layout.prop(settings, "fade")
+        layout.prop(settings, "spin")
+        for obj in structure_cache.target_objects(context.scene, context.view_layer):
+            entry = structure_cache.cached(obj)
+            if entry is not None and entry.error:
+                layout.label(text=f"{obj.name}: {entry.error}", icon='ERROR')
+            elif entry is not None:
+                s = entry.structure
+                layout.label(text=f"{obj.name}: {len(entry.boxes()['depth'])} boxes, "
+                                  f"{s.memory_bytes / 1024:.0f} KiB, built in {s.build_seconds * 1000:.1f} ms")
+
+
+class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
+    bl_label = "Ray probe"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.raylab, "probe_enabled", text="")
+
+    def draw(self, context):
+        settings = context.scene.raylab
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(settings, "probe_source", expand=True)
+        if settings.probe_source == 'OBJECT':
+            row = layout.row(align=True)
+            row.prop(settings, "probe_object")
+            row.operator("raylab.probe_add", text="", icon='ADD')
+        else:
+            column = layout.column(align=True)
+            column.prop(settings, "probe_pixel_x")
+            column.prop(settings, "probe_pixel_y")
+        layout.prop(settings, "probe_length")
+        row = layout.row(align=True)
+        row.prop(settings, "fan_enabled")
+        sub = row.row()
+        sub.active = settings.fan_enabled
+        sub.prop(settings, "fan_size", text="N")
+        if settings.probe_enabled:
+            box = layout.box()
+            for line in probe.status_text(context.scene):
+                box.label(text=line)
+
+
+class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
+    bl_label = "Last render"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    FIELDS = (("structure", "Structure"), ("rays_primary", "Primary rays"), ("rays_shadow", "Shadow rays"),
+              ("rays_ignored", "Rays ignored"), ("box_tests", "Box tests"), ("triangle_tests", "Triangles tested"),
+              ("build_seconds", "Build (s)"), ("render_seconds", "Render (s)"), ("memory_bytes", "Memory (bytes)"))
+
+    def draw(self, context):
+        stats = context.scene.get("raylab_last_render")
+        layout = self.layout
+        if stats is None:
+            layout.label(text="No raylab render yet (F12 with the raylab engine)")
+            return
+        column = layout.column(align=True)
+        for key, label in self.FIELDS:
+            if key in stats:
+                value = stats[key]
+                text = f"{value:.3f}" if isinstance(value, float) else f"{value:,}" if isinstance(value, int) else str(value)
+                row = column.row()
+                row.label(text=label)
+                row.label(text=text)
+
+
+CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_last_render)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)
