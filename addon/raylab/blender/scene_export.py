@@ -161,7 +161,9 @@ def _phong_material(colour, metallic, roughness, specular, transmission=0.0, ior
                 shininess=shininess_from_roughness(roughness), metallic=float(metallic),
                 # A smooth metal is a mirror; roughness blurs reflections the ray tracer cannot blur.
                 reflectivity=float(metallic) * (1.0 - float(roughness)),
-                transmission=float(transmission), ior=float(ior))
+                transmission=float(transmission), ior=float(ior),
+                # The world colour is the ambient light and, as in Blender, lights a surface fully.
+                ambient=1.0)
 
 
 def _light(light, matrix_world):

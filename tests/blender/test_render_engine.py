@@ -1,0 +1,119 @@
+"""The raylab render engine inside Blender: F12 renders, every structure gives the same picture, bad scenes
+report an error without crashing, Esc cancels, and the comparison operator measures all four structures."""
+import math
+import os
+import sys
+import tempfile
+
+import bpy
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
+import raylab  # noqa: E402
+from raylab.blender import default_scene, render_engine, scene_export  # noqa: E402
+
+RESOLUTION = (120, 90)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def addon_registered():
+    if not hasattr(bpy.types.Scene, "raylab_render"):
+        raylab.register()
+
+
+@pytest.fixture
+def demo_scene():
+    scene = bpy.context.scene
+    default_scene.build_default_scene(scene, resolution=RESOLUTION)
+    scene.render.engine = 'RAYLAB'
+    scene.raylab_render.structure = "bvh"
+    scene.raylab_render.super_sampling = 1
+    scene.pop("raylab_last_render", None)
+    return scene
+
+
+def render_f12(scene):
+    """bpy.ops.render.render() as F12 does it; returns the Render Result as (H, W, 4) float, row 0 at the top."""
+    path = os.path.join(tempfile.mkdtemp(prefix="raylab_render_"), "render.exr")
+    scene.render.image_settings.file_format = 'OPEN_EXR'
+    scene.render.image_settings.color_depth = '32'
+    bpy.ops.render.render()
+    bpy.data.images["Render Result"].save_render(path, scene=scene)
+    image = bpy.data.images.load(path)
+    pixels = np.array(image.pixels[:], np.float32).reshape(image.size[1], image.size[0], 4)[::-1]
+    bpy.data.images.remove(image)
+    return pixels
+
+
+def test_f12_renders_the_object_and_reports_statistics(demo_scene):
+    messages = []
+    handler = lambda text, *_: messages.append(str(text))  # noqa: E731
+    bpy.app.handlers.render_stats.append(handler)
+    try:
+        pixels = render_f12(demo_scene)
+    finally:
+        bpy.app.handlers.render_stats.remove(handler)
+    assert pixels.shape == (RESOLUTION[1], RESOLUTION[0], 4)
+    background = np.array(scene_export.world_colour(demo_scene.world))
+    middle = pixels[30:60, 40:80, :3]
+    assert (np.abs(middle - background).max(axis=2) > 0.05).mean() > 0.5   # the goat fills the middle
+    record = demo_scene["raylab_last_render"]
+    assert record["structure"] == "bvh"
+    assert record["rays_primary"] == RESOLUTION[0] * RESOLUTION[1]
+    assert record["triangle_tests"] > 0 and record["rays_shadow"] > 0
+    assert any("raylab bvh" in message for message in messages), messages
+
+
+def test_every_structure_renders_the_same_image(demo_scene):
+    images = {}
+    for structure in raylab.STRUCTURES:
+        demo_scene.raylab_render.structure = structure
+        images[structure] = render_f12(demo_scene)
+        assert demo_scene["raylab_last_render"]["structure"] == structure
+    for structure in raylab.STRUCTURES[:-1]:
+        assert np.array_equal(images[structure], images["bvh"]), structure
+
+
+def test_bad_scenes_report_an_error_and_blender_keeps_running(demo_scene):
+    camera = demo_scene.camera
+    demo_scene.camera = None
+    with pytest.raises(RuntimeError, match="camera"):     # Blender's own check comes first on F12
+        bpy.ops.render.render()
+    with pytest.raises(RuntimeError, match="no active camera"):
+        bpy.ops.raylab.compare_structures()
+
+    demo_scene.camera = camera
+    vertices = bpy.data.objects["Goat Head"].data.vertices
+    vertices[0].co = (math.nan, 0.0, 0.0)
+    with pytest.raises(RuntimeError, match="Goat Head.*NaN"):
+        bpy.ops.render.render()
+    assert "raylab_last_render" not in demo_scene
+
+    for obj in list(demo_scene.objects):
+        if obj.type == 'MESH':
+            bpy.data.objects.remove(obj)
+    with pytest.raises(RuntimeError, match="no visible mesh"):
+        bpy.ops.render.render()
+    assert "raylab_last_render" not in demo_scene
+
+
+def test_cancel_returns_cleanly(demo_scene, monkeypatch):
+    monkeypatch.setattr(render_engine.RaylabRenderEngine, "test_break", lambda self: True)
+    bpy.ops.render.render()
+    assert "raylab_last_render" not in demo_scene   # a cancelled render leaves no statistics
+
+    exported = scene_export.export_scene(bpy.context.evaluated_depsgraph_get())
+    calls = []
+    result = render_engine.render_exported(exported, demo_scene.raylab_render,
+                                           progress=lambda fraction: calls.append(fraction) or True)
+    assert result.cancelled and calls
+
+
+def test_comparison_operator_measures_all_four_structures(demo_scene):
+    assert bpy.ops.raylab.compare_structures() == {'FINISHED'}
+    table = demo_scene["raylab_comparison"]
+    assert list(table.keys()) == list(raylab.STRUCTURES)
+    assert len({table[s]["rays_primary"] for s in raylab.STRUCTURES}) == 1
+    assert table["none"]["triangle_tests"] > table["aabb"]["triangle_tests"] > table["bvh"]["triangle_tests"]
+    assert table["none"]["rays_ignored"] == 0 < table["aabb"]["rays_ignored"]

@@ -1,0 +1,106 @@
+"""./raylab demo: render the goat-head scene with every structure at super sampling 1, 2 and 3.
+
+Runs inside headless Blender (`blender -b --factory-startup --python tools/demo.py -- [options]`). Prints
+the measurements in the form of the VRT thesis's tables 1-4 (render seconds, and ray-triangle tests, per
+structure per super-sampling level) and writes the images, a Markdown table and a JSON file to out/demo/.
+"""
+import argparse
+import json
+import os
+import sys
+
+import bpy
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+
+import raylab  # noqa: E402
+from raylab.blender import compare, default_scene, scene_export  # noqa: E402
+
+SUPER_SAMPLING = (1, 2, 3)
+# VRT's averages on its goat-head scene (thesis section 6.1, tables 1-4), for comparison.
+VRT_SECONDS = {1: (0.1803, 0.1480, 0.2784), 2: (0.5674, 0.4708, 0.8902), 3: (1.2525, 0.9915, 1.9080)}
+VRT_TRIANGLE_TESTS = {1: (116_960_000, 22_994_336, 1_173_277), 2: (467_840_000, 92_273_399, 4_700_384),
+                      3: (1_052_630_000, 207_390_548, 10_557_042)}
+
+
+def parse_arguments():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    parser = argparse.ArgumentParser(prog="./raylab demo", description=__doc__.splitlines()[0])
+    parser.add_argument("--resolution", default="320x240", help="image size WxH (default 320x240)")
+    parser.add_argument("--out", default=os.path.join(ROOT, "out", "demo"), help="output folder")
+    arguments = parser.parse_args(argv)
+    try:
+        width, height = (int(n) for n in arguments.resolution.lower().split("x"))
+    except ValueError:
+        parser.error(f"--resolution must look like 320x240, not {arguments.resolution!r}")
+    return (width, height), arguments.out
+
+
+def markdown_table(title, header, rows):
+    lines = [f"**{title}**", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def decrease(value, reference):
+    return f"{100.0 * (1.0 - value / reference):.2f} %" if reference else "-"
+
+
+def tables(measurements, width, height, triangle_count):
+    """The Markdown tables: seconds and triangle tests per structure (columns) per super sampling (rows)."""
+    structures = list(raylab.STRUCTURES)
+    scene_note = f"goat head ({triangle_count} triangles with the ground), {width} x {height} px"
+    seconds = [[f"Super Sampling {ss}"] + [f"{measurements[ss][s]['render_seconds']:.4f}" for s in structures]
+               + [" / ".join(f"{t:.4f}" for t in VRT_SECONDS[ss])] for ss in SUPER_SAMPLING]
+    builds = [[f"Super Sampling {ss}"] + [f"{measurements[ss][s]['build_seconds']:.4f}" for s in structures]
+              for ss in SUPER_SAMPLING]
+    tests = [[f"Super Sampling {ss}"] + [f"{measurements[ss][s]['triangle_tests']:,}" for s in structures]
+             + [" / ".join(f"{t:,}" for t in VRT_TRIANGLE_TESTS[ss])] for ss in SUPER_SAMPLING]
+    saved = [[f"Super Sampling {ss}"] + [decrease(measurements[ss][s]["triangle_tests"],
+                                                  measurements[ss]["none"]["triangle_tests"])
+                                         for s in structures[1:]] for ss in SUPER_SAMPLING]
+    rays = [[f"Super Sampling {ss}"] + [f"{measurements[ss]['bvh'][k]:,}" for k in
+                                        ("rays_primary", "rays_shadow", "rays_reflection", "rays_refraction")]
+            + [f"{measurements[ss][s]['rays_ignored']:,}" for s in ("aabb", "octree")] for ss in SUPER_SAMPLING]
+    vrt = "VRT (no acceleration / AABB / octree)"
+    return "\n".join([
+        markdown_table(f"Tables 1-3: render seconds ({scene_note})", ["", *structures, vrt], seconds),
+        markdown_table("Build seconds (all meshes of the scene)", ["", *structures], builds),
+        markdown_table("Table 4: ray-triangle intersection tests", ["", *structures, vrt], tests),
+        markdown_table("Decrease in ray-triangle tests against no acceleration", ["", *structures[1:]], saved),
+        markdown_table("Rays traced (the same for every structure) and rays ignored by a box",
+                       ["", "primary", "shadow", "reflection", "refraction", "ignored (aabb)",
+                        "ignored (octree)"], rays),
+    ])
+
+
+def main():
+    (width, height), out = parse_arguments()
+    os.makedirs(out, exist_ok=True)
+    raylab.register()
+    scene = bpy.context.scene
+    default_scene.build_default_scene(scene, resolution=(width, height))
+    scene.render.engine = 'RAYLAB'
+    exported = scene_export.export_scene(bpy.context.evaluated_depsgraph_get())
+    triangle_count = sum(len(triangles) for _, triangles in exported.meshes)
+    measurements = {}
+    for ss in SUPER_SAMPLING:
+        measurements[ss] = {}
+        for structure, result in compare.compare_structures(exported, scene.raylab_render, super_sampling=ss):
+            raylab.write_image(os.path.join(out, f"goathead_{structure}_ss{ss}.png"), result.image)
+            measurements[ss][structure] = {key: (value.item() if hasattr(value, "item") else value)
+                                           for key, value in result.stats.items()}
+            print(f"  rendered {structure:6} at super sampling {ss}: "
+                  f"{measurements[ss][structure]['render_seconds']:.3f} s", flush=True)
+    text = tables(measurements, width, height, triangle_count)
+    print("\n" + text)
+    with open(os.path.join(out, "table.md"), "w") as file:
+        file.write(text)
+    with open(os.path.join(out, "results.json"), "w") as file:
+        json.dump({"scene": "goat head", "width": width, "height": height, "triangles": triangle_count,
+                   "measurements": {str(ss): m for ss, m in measurements.items()}}, file, indent=2)
+    print(f"raylab demo: images, table.md and results.json in {out}")
+
+
+main()
