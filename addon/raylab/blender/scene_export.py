@@ -158,9 +158,9 @@ def shininess_from_roughness(roughness):
 
 def _phong_material(colour, metallic, roughness, specular, transmission=0.0, ior=1.45):
     return dict(diffuse=tuple(float(c) for c in colour), specular=float(specular),
-                shininess=shininess_from_roughness(roughness), metallic=float(metallic),
-                # A smooth metal is a mirror; roughness blurs reflections the ray tracer cannot blur.
-                reflectivity=float(metallic) * (1.0 - float(roughness)),
+                # The renderer makes a metallic surface a mirror tinted by its colour (Whitted rays
+                # cannot blur a rough one); a dielectric reflects only through Fresnel when it transmits.
+                shininess=shininess_from_roughness(roughness), metallic=float(metallic), reflectivity=0.0,
                 transmission=float(transmission), ior=float(ior),
                 # The world colour is the ambient light and, as in Blender, lights a surface fully.
                 ambient=1.0)
