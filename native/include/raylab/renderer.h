@@ -1,0 +1,86 @@
+// The Whitted-style ray tracer of VRT: Phong shading, point/sun/spot/area lights, hard shadows (soft
+// from area lights), reflection, refraction with Schlick's Fresnel and total internal reflection, a
+// recursion limit, NxN super-sampling and a solid background. Parallel over tiles; reports progress,
+// can be cancelled, counts its rays by type and the structure's work.
+#pragma once
+
+#include "raylab/camera.h"
+#include "raylab/light.h"
+#include "raylab/material.h"
+#include "raylab/scene.h"
+#include "raylab/traversal_record.h"
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace raylab {
+
+struct RenderSettings {
+  int super_sampling = 1;  // NxN stratified samples per pixel, 1..4
+  int max_depth = 3;       // reflection/refraction bounces after the primary hit
+  bool shadows = true;
+  glm::vec3 background{0.05f};
+  glm::vec3 ambient{1.0f};  // scaled by each material's `ambient` and diffuse colour
+  bool robust_offset = true;     // Wächter-Binder offset (ray_offset.h); false: fixed epsilon
+  float fixed_epsilon = 1e-4f;   // along the normal, when robust_offset is false
+  int threads = 0;               // 0: all
+  int tile_size = 32;
+
+  void validate() const;  // throws std::invalid_argument naming the bad setting
+};
+
+struct RenderStats {
+  uint64_t rays_primary = 0;
+  uint64_t rays_shadow = 0;
+  uint64_t rays_reflection = 0;
+  uint64_t rays_refraction = 0;
+  TraversalStats traversal;  // of every ray above, summed over threads
+  double build_seconds = 0.0;
+  double render_seconds = 0.0;
+  size_t memory_bytes = 0;
+  std::string structure;  // of the scene's first mesh; empty for an empty scene
+  int width = 0, height = 0;
+
+  RenderStats& operator+=(const RenderStats& o);  // sums the ray and traversal counters
+};
+
+// Shared between the renderer and whoever waits for it (any thread).
+struct RenderProgress {
+  std::atomic<uint32_t> tiles_done{0};
+  std::atomic<uint32_t> tiles_total{0};
+  std::atomic<bool> cancel_requested{false};
+
+  float fraction() const {
+    const uint32_t total = tiles_total.load();
+    return total == 0 ? 0.0f : float(tiles_done.load()) / float(total);
+  }
+  void cancel() { cancel_requested.store(true); }
+};
+
+struct RenderResult {
+  int width = 0, height = 0;
+  std::vector<float> image;       // height x width x RGBA, linear, top row first
+  std::vector<int32_t> instance;  // height x width: instance hit by the pixel-centre ray, -1 on miss
+  std::vector<float> distance;    // height x width: |hit - ray origin| of that ray, inf on miss
+  bool cancelled = false;         // tiles not rendered keep zero colour
+  RenderStats stats;
+};
+
+// Renders `scene` (committed) as seen by `camera`. Throws std::invalid_argument on bad settings,
+// lights, materials, or an instance whose material index is out of range.
+RenderResult render(const Scene& scene, const CameraSettings& camera, std::span<const Light> lights,
+                    std::span<const Material> materials, const RenderSettings& settings,
+                    RenderProgress* progress = nullptr);
+
+// Schlick's approximation of the Fresnel reflectance for light arriving with cos_incident (> 0)
+// at an interface from a medium of index n1 into n2; 1 under total internal reflection.
+float schlick_fresnel(float cos_incident, float n1, float n2);
+
+// The refracted unit direction of unit `incident` through a surface with unit normal `n` facing the
+// incident side, eta = n1 / n2; false on total internal reflection.
+bool refract_direction(const glm::vec3& incident, const glm::vec3& n, float eta, glm::vec3& out);
+
+}  // namespace raylab

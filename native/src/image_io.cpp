@@ -1,0 +1,51 @@
+#include "raylab/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <stdexcept>
+#include <vector>
+
+namespace raylab {
+
+float srgb_encode(float linear) {
+  const float c = linear > 0.0f ? std::min(linear, 1.0f) : 0.0f;  // NaN becomes 0
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+void write_image(const std::string& path, std::span<const float> rgba, int width, int height) {
+  const auto fail = [&](const std::string& why) {
+    throw std::runtime_error("cannot write image '" + path + "': " + why);
+  };
+  if (width <= 0 || height <= 0 || rgba.size() != size_t(width) * size_t(height) * 4)
+    fail("the image must be (height, width, 4) with height, width > 0");
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext != ".png" && ext != ".exr") fail("the extension must be .png or .exr");
+
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) fail(OIIO::geterror());
+  bool ok;
+  if (ext == ".png") {
+    std::vector<uint8_t> bytes(rgba.size());
+    for (size_t i = 0; i < rgba.size(); ++i) {
+      // Alpha is not colour: it is stored linearly.
+      const float v = (i % 4 == 3) ? (rgba[i] > 0.0f ? std::min(rgba[i], 1.0f) : 0.0f) : srgb_encode(rgba[i]);
+      bytes[i] = uint8_t(std::lround(v * 255.0f));
+    }
+    OIIO::ImageSpec spec(width, height, 4, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+  } else {
+    OIIO::ImageSpec spec(width, height, 4, OIIO::TypeDesc::FLOAT);
+    spec.attribute("oiio:ColorSpace", "Linear");
+    ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, rgba.data());
+  }
+  if (!ok) fail(out->geterror());
+  if (!out->close()) fail(out->geterror());
+}
+
+}  // namespace raylab

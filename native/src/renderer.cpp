@@ -1,0 +1,423 @@
+#include "raylab/renderer.h"
+
+#include "raylab/ray_offset.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <glm/gtc/constants.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace raylab {
+
+namespace {
+
+bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+bool finite(const glm::mat4& m) {
+  for (int c = 0; c < 4; ++c)
+    if (!finite(glm::vec3(m[c])) || !std::isfinite(m[c][3])) return false;
+  return true;
+}
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument(what);
+}
+
+// splitmix64: a per-pixel stream, so that a pixel's samples do not depend on the thread or tile
+// order and every structure renders the same image bit for bit.
+struct PixelRandom {
+  uint64_t state;
+  explicit PixelRandom(uint64_t pixel) : state(pixel * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull) {}
+  float next() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return float(z >> 40) * 0x1p-24f;  // [0, 1)
+  }
+};
+
+// Blender's spot cone (Cycles' spot_attenuation): zero outside the half angle, a smoothstep over the
+// blend band inside it, and the cosine to the axis as Blender keeps it.
+float spot_attenuation(float cos_to_axis, float spot_size, float spot_blend) {
+  const float cos_half = std::cos(0.5f * spot_size);
+  if (cos_to_axis <= cos_half) return 0.0f;
+  const float smooth = (1.0f - cos_half) * spot_blend;
+  const float t = cos_to_axis - cos_half;
+  if (smooth > 0.0f && t < smooth) {
+    const float x = t / smooth;
+    return cos_to_axis * x * x * (3.0f - 2.0f * x);
+  }
+  return cos_to_axis;
+}
+
+// A light with its world placement worked out once.
+struct PlacedLight {
+  const Light* light;
+  glm::vec3 position;
+  glm::vec3 axis;  // the direction it shines (local -Z), unit
+};
+
+struct PlacedInstance {
+  const TriangleMesh* mesh;
+  const Material* material;
+  glm::mat3 normal_matrix;  // inverse transpose of the object-to-world linear part
+};
+
+class Tracer {
+ public:
+  Tracer(const Scene& scene, std::vector<PlacedInstance> instances, std::vector<PlacedLight> lights,
+         const RenderSettings& settings)
+      : scene_(scene), instances_(std::move(instances)), lights_(std::move(lights)), settings_(settings) {}
+
+  glm::vec3 trace(const Ray& ray, int depth, RenderStats& stats, PixelRandom& random) const {
+    Hit hit;
+    if (!scene_.closest(ray, hit, &stats.traversal)) return settings_.background;
+    return shade(ray, hit, depth, stats, random);
+  }
+
+  glm::vec3 shade(const Ray& ray, const Hit& hit, int depth, RenderStats& stats, PixelRandom& random) const;
+
+ private:
+  glm::vec3 offset(const glm::vec3& p, const glm::vec3& n) const {
+    return settings_.robust_offset ? offset_ray(p, n) : offset_ray_fixed(p, n, settings_.fixed_epsilon);
+  }
+  // 1 if nothing lies between `origin` and `origin + distance * direction`, else 0.
+  float visibility(const glm::vec3& origin, const glm::vec3& direction, float distance, bool light_shadows,
+                   RenderStats& stats) const {
+    if (!settings_.shadows || !light_shadows) return 1.0f;
+    ++stats.rays_shadow;
+    Ray r;
+    r.origin = origin;
+    r.direction = direction;
+    r.tmax = distance;
+    return scene_.any(r, &stats.traversal) ? 0.0f : 1.0f;
+  }
+  // Phong: Lambert's diffuse plus a normalised Phong lobe, lit by irradiance `e` (with the cosine)
+  // arriving from unit direction `l`.
+  glm::vec3 phong(const Material& m, const glm::vec3& diffuse, const glm::vec3& n, const glm::vec3& v,
+                  const glm::vec3& l, const glm::vec3& e, glm::vec3& specular_out) const {
+    const glm::vec3 r = glm::reflect(-l, n);
+    const float cos_r = std::max(0.0f, glm::dot(r, v));
+    const float lobe = m.specular * (m.shininess + 2.0f) * glm::one_over_two_pi<float>() * std::pow(cos_r, m.shininess);
+    specular_out += lobe * e;
+    return diffuse * glm::one_over_pi<float>() * e;
+  }
+  glm::vec3 direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
+                         const glm::vec3& p, const glm::vec3& n, const glm::vec3& v, RenderStats& stats,
+                         PixelRandom& random, glm::vec3& specular) const;
+
+  const Scene& scene_;
+  std::vector<PlacedInstance> instances_;
+  std::vector<PlacedLight> lights_;
+  const RenderSettings& settings_;
+};
+
+// Light falloff. Point, spot and area energies are Blender watts, radiated as a point of intensity
+// energy / (4 pi) W/sr, so the irradiance at distance r is energy / (4 pi r^2) * cos(theta). With a
+// Lambertian BRDF of albedo / pi this is Cycles' own scale: Blender's default scene (a 1000 W point
+// light about 6 m from a 0.8 grey cube) gives radiance 0.3-0.4 on the lit faces, a well exposed
+// picture with no extra factor. The sun's strength is irradiance: strength * cos(theta). An area
+// light splits its energy over its samples, each radiating only forwards with an extra cosine.
+glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
+                               const glm::vec3& p, const glm::vec3& n, const glm::vec3& v,
+                               RenderStats& stats, PixelRandom& random, glm::vec3& specular) const {
+  const Light& light = *pl.light;
+  const glm::vec3 radiant = light.color * light.energy;
+  const glm::vec3 origin = offset(p, n);
+  constexpr float kFourPi = 4.0f * glm::pi<float>();
+
+  if (light.type == LightType::Sun) {
+    const glm::vec3 l = -pl.axis;
+    const float cos_n = glm::dot(n, l);
+    if (cos_n <= 0.0f) return glm::vec3(0.0f);
+    const glm::vec3 e = radiant * cos_n * visibility(origin, l, kInfinity, light.shadows, stats);
+    return phong(m, diffuse, n, v, l, e, specular);
+  }
+  if (light.type == LightType::Area) {
+    const int k = light.samples;
+    const glm::vec3 per_sample = radiant / (float(k * k) * kFourPi);
+    glm::vec3 sum(0.0f);
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < k; ++j) {
+        const float sx = ((float(i) + random.next()) / float(k) - 0.5f) * light.size;
+        const float sy = ((float(j) + random.next()) / float(k) - 0.5f) * light.size;
+        const glm::vec3 q = glm::vec3(light.matrix_world * glm::vec4(sx, sy, 0.0f, 1.0f));
+        const glm::vec3 to_light = q - p;
+        const float r2 = glm::dot(to_light, to_light);
+        if (!(r2 > 0.0f)) continue;
+        const float r = std::sqrt(r2);
+        const glm::vec3 l = to_light / r;
+        const float cos_n = glm::dot(n, l), cos_light = glm::dot(pl.axis, -l);
+        if (cos_n <= 0.0f || cos_light <= 0.0f) continue;
+        const glm::vec3 e = per_sample * (cos_n * cos_light / r2) * visibility(origin, l, r, light.shadows, stats);
+        sum += phong(m, diffuse, n, v, l, e, specular);
+      }
+    return sum;
+  }
+  // Point and spot.
+  const glm::vec3 to_light = pl.position - p;
+  const float r2 = glm::dot(to_light, to_light);
+  if (!(r2 > 0.0f)) return glm::vec3(0.0f);
+  const float r = std::sqrt(r2);
+  const glm::vec3 l = to_light / r;
+  const float cos_n = glm::dot(n, l);
+  if (cos_n <= 0.0f) return glm::vec3(0.0f);
+  float factor = cos_n / (kFourPi * r2);
+  if (light.type == LightType::Spot) factor *= spot_attenuation(glm::dot(pl.axis, -l), light.spot_size, light.spot_blend);
+  if (factor <= 0.0f) return glm::vec3(0.0f);
+  const glm::vec3 e = radiant * factor * visibility(origin, l, r, light.shadows, stats);
+  return phong(m, diffuse, n, v, l, e, specular);
+}
+
+glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& stats, PixelRandom& random) const {
+  const PlacedInstance& inst = instances_[hit.instance];
+  const Material& m = *inst.material;
+  const glm::uvec3 tri = inst.mesh->triangles[hit.triangle];
+  const glm::vec3 a = inst.mesh->vertices[tri.x], b = inst.mesh->vertices[tri.y], c = inst.mesh->vertices[tri.z];
+  const glm::vec3 d = ray.direction;
+  glm::vec3 n = inst.normal_matrix * glm::cross(b - a, c - a);
+  const float length = glm::length(n);
+  n = length > 0.0f && std::isfinite(length) ? n / length : -d;
+  const bool entering = glm::dot(n, d) < 0.0f;  // against the winding's normal: from outside
+  const glm::vec3 nf = entering ? n : -n;        // faces the incoming ray
+  const glm::vec3 p = ray.at(hit.t);
+  const glm::vec3 v = -d;
+
+  const float kr = m.reflectivity + m.metallic * (1.0f - m.reflectivity);
+  const glm::vec3 tint = glm::mix(glm::vec3(1.0f), m.diffuse, m.metallic);
+  const glm::vec3 diffuse = m.diffuse * (1.0f - m.metallic);
+
+  glm::vec3 specular(0.0f);
+  glm::vec3 local = m.ambient * settings_.ambient * diffuse;
+  for (const PlacedLight& pl : lights_) local += direct_light(pl, m, diffuse, p, nf, v, stats, random, specular);
+
+  const float t = m.transmission;
+  glm::vec3 color = specular + (1.0f - t) * (1.0f - kr) * local;
+  if (depth >= settings_.max_depth) return color;
+
+  // Fresnel splits the transmitted share into reflection and refraction; under total internal
+  // reflection all of it reflects.
+  float fresnel = 0.0f;
+  glm::vec3 refracted;
+  bool refracts = false;
+  if (t > 0.0f) {
+    const float n1 = entering ? 1.0f : m.ior, n2 = entering ? m.ior : 1.0f;
+    fresnel = schlick_fresnel(glm::dot(v, nf), n1, n2);
+    refracts = refract_direction(d, nf, n1 / n2, refracted);
+    if (!refracts) fresnel = 1.0f;
+  }
+  const glm::vec3 reflect_weight = (1.0f - t) * kr * tint + glm::vec3(t * fresnel);
+  if (reflect_weight != glm::vec3(0.0f)) {
+    ++stats.rays_reflection;
+    Ray r;
+    r.origin = offset(p, nf);
+    r.direction = glm::reflect(d, nf);
+    color += reflect_weight * trace(r, depth + 1, stats, random);
+  }
+  if (refracts && t * (1.0f - fresnel) > 0.0f) {
+    ++stats.rays_refraction;
+    Ray r;
+    r.origin = offset(p, -nf);
+    r.direction = refracted;
+    color += t * (1.0f - fresnel) * trace(r, depth + 1, stats, random);
+  }
+  return color;
+}
+
+}  // namespace
+
+float schlick_fresnel(float cos_incident, float n1, float n2) {
+  float r0 = (n1 - n2) / (n1 + n2);
+  r0 *= r0;
+  float cos_theta = std::clamp(cos_incident, 0.0f, 1.0f);
+  if (n1 > n2) {
+    // Leaving the denser medium, Schlick's formula needs the transmitted angle.
+    const float eta = n1 / n2;
+    const float sin2_t = eta * eta * (1.0f - cos_theta * cos_theta);
+    if (sin2_t >= 1.0f) return 1.0f;
+    cos_theta = std::sqrt(1.0f - sin2_t);
+  }
+  const float x = 1.0f - cos_theta;
+  return r0 + (1.0f - r0) * x * x * x * x * x;
+}
+
+bool refract_direction(const glm::vec3& incident, const glm::vec3& n, float eta, glm::vec3& out) {
+  const float cos_i = -glm::dot(incident, n);
+  const float k = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
+  if (k < 0.0f) return false;
+  out = glm::normalize(eta * incident + (eta * cos_i - std::sqrt(k)) * n);
+  return true;
+}
+
+void RenderSettings::validate() const {
+  require(super_sampling >= 1 && super_sampling <= 4, "super_sampling must be 1 to 4, got " + std::to_string(super_sampling));
+  require(max_depth >= 0 && max_depth <= 64, "max_depth must be 0 to 64, got " + std::to_string(max_depth));
+  require(finite(background), "background must be finite");
+  require(finite(ambient), "ambient must be finite");
+  require(std::isfinite(fixed_epsilon) && fixed_epsilon >= 0.0f, "fixed_epsilon must be finite and >= 0");
+  require(threads >= 0, "threads must be >= 0");
+  require(tile_size >= 1 && tile_size <= 4096, "tile_size must be 1 to 4096");
+}
+
+void Material::validate() const {
+  require(finite(diffuse), "diffuse must be finite");
+  require(std::isfinite(specular) && specular >= 0.0f, "specular must be finite and >= 0");
+  require(std::isfinite(shininess) && shininess >= 0.0f, "shininess must be finite and >= 0");
+  require(metallic >= 0.0f && metallic <= 1.0f, "metallic must be 0 to 1");
+  require(reflectivity >= 0.0f && reflectivity <= 1.0f, "reflectivity must be 0 to 1");
+  require(transmission >= 0.0f && transmission <= 1.0f, "transmission must be 0 to 1");
+  require(std::isfinite(ior) && ior > 0.0f, "ior must be finite and > 0");
+  require(std::isfinite(ambient), "ambient must be finite");
+}
+
+void Light::validate() const {
+  require(finite(color), "color must be finite");
+  require(std::isfinite(energy), "energy must be finite");
+  require(finite(matrix_world), "matrix_world has a NaN or infinite entry");
+  require(glm::determinant(glm::mat3(matrix_world)) != 0.0f, "matrix_world is singular");
+  require(std::isfinite(radius) && radius >= 0.0f, "radius must be finite and >= 0");
+  require(spot_size > 0.0f && spot_size <= glm::pi<float>(), "spot_size must be in (0, pi]");
+  require(spot_blend >= 0.0f && spot_blend <= 1.0f, "spot_blend must be 0 to 1");
+  require(std::isfinite(size) && size > 0.0f, "size must be finite and > 0");
+  require(samples >= 1 && samples <= 64, "samples must be 1 to 64");
+}
+
+RenderStats& RenderStats::operator+=(const RenderStats& o) {
+  rays_primary += o.rays_primary;
+  rays_shadow += o.rays_shadow;
+  rays_reflection += o.rays_reflection;
+  rays_refraction += o.rays_refraction;
+  traversal += o.traversal;
+  return *this;
+}
+
+RenderResult render(const Scene& scene, const CameraSettings& camera_settings, std::span<const Light> lights,
+                    std::span<const Material> materials, const RenderSettings& settings, RenderProgress* progress) {
+  const auto start = std::chrono::steady_clock::now();
+  settings.validate();
+  const Camera camera(camera_settings);
+  for (size_t i = 0; i < materials.size(); ++i) {
+    try {
+      materials[i].validate();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("materials[" + std::to_string(i) + "]: " + e.what());
+    }
+  }
+  std::vector<PlacedLight> placed_lights;
+  for (size_t i = 0; i < lights.size(); ++i) {
+    try {
+      lights[i].validate();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("lights[" + std::to_string(i) + "]: " + e.what());
+    }
+    const glm::mat4& m = lights[i].matrix_world;
+    placed_lights.push_back({&lights[i], glm::vec3(m[3]), glm::normalize(glm::vec3(m * glm::vec4(0, 0, -1, 0)))});
+  }
+  std::vector<PlacedInstance> instances;
+  for (uint32_t i = 0; i < scene.instance_count(); ++i) {
+    const Instance& inst = scene.instance(i);
+    require(inst.material < materials.size(),
+            "instance " + std::to_string(i) + " uses material " + std::to_string(inst.material) + " but " +
+                std::to_string(materials.size()) + " materials were given");
+    instances.push_back({&scene.mesh(inst.mesh), &materials[inst.material],
+                         glm::transpose(glm::inverse(glm::mat3(inst.transform)))});
+  }
+  const Tracer tracer(scene, std::move(instances), std::move(placed_lights), settings);
+
+  RenderResult result;
+  const int w = camera.width(), h = camera.height();
+  result.width = w;
+  result.height = h;
+  result.image.assign(size_t(w) * h * 4, 0.0f);
+  result.instance.assign(size_t(w) * h, -1);
+  result.distance.assign(size_t(w) * h, kInfinity);
+
+  const int ts = settings.tile_size;
+  const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts;
+  const int tiles = tiles_x * tiles_y;
+  RenderProgress local_progress;
+  RenderProgress& prog = progress ? *progress : local_progress;
+  prog.tiles_done.store(0);
+  prog.tiles_total.store(uint32_t(tiles));
+  std::atomic<bool> skipped{false};
+  tbb::enumerable_thread_specific<RenderStats> per_thread;
+  const int ss = settings.super_sampling;
+  const bool centre_is_sample = ss % 2 == 1;
+
+  const auto render_tile = [&](int tile) {
+    if (prog.cancel_requested.load(std::memory_order_relaxed)) {
+      skipped.store(true);
+      return;
+    }
+    RenderStats& stats = per_thread.local();
+    const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
+    const int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const size_t pixel = size_t(y) * w + x;
+        PixelRandom random(pixel);
+        glm::vec3 sum(0.0f);
+        for (int j = 0; j < ss; ++j)
+          for (int i = 0; i < ss; ++i) {
+            const Ray ray = camera.ray(float(x) + (float(i) + 0.5f) / float(ss), float(y) + (float(j) + 0.5f) / float(ss));
+            ++stats.rays_primary;
+            Hit hit;
+            const bool found = scene.closest(ray, hit, &stats.traversal);
+            if (centre_is_sample && i == ss / 2 && j == ss / 2 && found) {
+              result.instance[pixel] = int32_t(hit.instance);
+              result.distance[pixel] = glm::length(ray.at(hit.t) - ray.origin);
+            }
+            sum += found ? tracer.shade(ray, hit, 0, stats, random) : settings.background;
+          }
+        if (!centre_is_sample) {
+          // The centre is no sample of an even grid: probe it apart, uncounted, as it is no render work.
+          const Ray ray = camera.ray(float(x) + 0.5f, float(y) + 0.5f);
+          Hit hit;
+          if (scene.closest(ray, hit)) {
+            result.instance[pixel] = int32_t(hit.instance);
+            result.distance[pixel] = glm::length(ray.at(hit.t) - ray.origin);
+          }
+        }
+        const glm::vec3 color = sum / float(ss * ss);
+        float* out = &result.image[pixel * 4];
+        out[0] = color.x;
+        out[1] = color.y;
+        out[2] = color.z;
+        out[3] = 1.0f;
+      }
+    prog.tiles_done.fetch_add(1);
+  };
+  const auto run = [&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& range) {
+      for (int tile = range.begin(); tile != range.end(); ++tile) render_tile(tile);
+    });
+  };
+  if (settings.threads > 0) {
+    tbb::task_arena arena(settings.threads);
+    arena.execute(run);
+  } else {
+    run();
+  }
+
+  RenderStats& stats = result.stats;
+  for (const RenderStats& s : per_thread) stats += s;
+  result.cancelled = skipped.load();
+  stats.width = w;
+  stats.height = h;
+  stats.build_seconds = scene.build_seconds();
+  stats.memory_bytes = scene.memory_bytes();
+  stats.structure = scene.mesh_count() > 0 ? structure_kind_name(scene.structure(0).kind()) : "";
+  stats.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace raylab
