@@ -1,0 +1,150 @@
+"""The overlay and the probe as a user sees them: Blender in a real window under Xvfb draws a mesh's
+structure and the ray probe; the screenshots must show the boxes where Blender projects them, and
+the status text in the top-left corner only when the probe is on.
+
+Runs viewport_shot.py inside Blender; screenshots land in out/gui/.
+"""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir, os.pardir))
+OUT = os.path.join(ROOT, "out", "gui")
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+import raylab  # noqa: E402
+
+
+def structure_available(name):
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
+    try:
+        raylab.build(V, np.array([[0, 1, 2]], dtype=np.uint32), structure=name)
+        return True
+    except (ValueError, RuntimeError):
+        return False
+
+
+@pytest.fixture(scope="module")
+def empty_blend(tmp_path_factory):
+    """A saved default scene: opening a file keeps the splash screen out of the screenshots."""
+    path = str(tmp_path_factory.mktemp("viewport") / "start.blend")
+    subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
+                    f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={path!r})"],
+                   check=True, capture_output=True, timeout=120)
+    return path
+
+
+def shoot(structure, blend):
+    for suffix in ("_off.png", "_on.png", ".json"):
+        path = os.path.join(OUT, f"viewport_{structure}{suffix}")
+        if os.path.exists(path):
+            os.remove(path)
+    subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
+                    "--python", os.path.join(ROOT, "tests", "gui", "viewport_shot.py"), "--", OUT, structure],
+                   capture_output=True, timeout=300)
+    with open(os.path.join(OUT, f"viewport_{structure}.json")) as f:
+        report = json.load(f)
+    assert "error" not in report, report["error"]
+    off = imread(os.path.join(OUT, f"viewport_{structure}_off.png"))[:, :, :3]
+    on = imread(os.path.join(OUT, f"viewport_{structure}_on.png"))[:, :, :3]
+    return report, off, on
+
+
+class Region:
+    """The 3D viewport region inside the window screenshot (Blender counts y from the bottom)."""
+
+    def __init__(self, report, image):
+        r = report["region"]
+        self.x, self.y, self.width, self.height = r["x"], r["y"], r["width"], r["height"]
+        self.window_height = image.shape[0]
+
+    def crop(self, image):
+        top = self.window_height - (self.y + self.height)
+        return image[top:top + self.height, self.x:self.x + self.width]
+
+    def pixel(self, x, y):
+        """(row, column) in a cropped region image of region coordinates (x, y)."""
+        return self.height - 1 - int(round(y)), int(round(x))
+
+
+def green_mask(image):
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    return (g > 0.55) & (g - r > 0.3) & (g - b > 0.3)
+
+
+def color_mask(image, color, tolerance=0.12):
+    return np.all(np.abs(image - np.asarray(color[:3])) < tolerance, axis=-1)
+
+
+def edge_samples(report, step=2.0):
+    """Region-space points along every projected box edge."""
+    points = report["points"]
+    samples = []
+    for a, b in report["edges"]:
+        if points[a] is None or points[b] is None:
+            continue
+        pa, pb = np.array(points[a]), np.array(points[b])
+        n = max(2, int(np.linalg.norm(pb - pa) / step))
+        samples.append(pa + np.linspace(0.0, 1.0, n)[:, None] * (pb - pa))
+    return np.concatenate(samples)
+
+
+def dilate(mask, radius):
+    out = mask.copy()
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            out |= np.roll(np.roll(mask, dy, axis=0), dx, axis=1)
+    return out
+
+
+def check_boxes_drawn(report, off):
+    region = Region(report, off)
+    green = green_mask(region.crop(off))
+    samples = edge_samples(report)
+    margin = 4
+    inside = ((samples[:, 0] > margin) & (samples[:, 0] < region.width - margin)
+              & (samples[:, 1] > margin) & (samples[:, 1] < region.height - margin))
+    assert inside.sum() > 100, "the boxes should project into the viewport"
+    near = dilate(green, 2)
+    found = [near[region.pixel(x, y)] for x, y in samples[inside]]
+    assert np.mean(found) > 0.9, f"only {np.mean(found):.0%} of the projected box edges are drawn green"
+
+    expected = np.zeros_like(green)
+    for x, y in samples[inside]:
+        expected[region.pixel(x, y)] = True
+    stray = green & ~dilate(expected, 5)
+    assert green.sum() > 200
+    assert stray.sum() <= 0.01 * green.sum(), f"{stray.sum()} green pixels lie away from every projected edge"
+
+
+def check_status_text(report, off, on):
+    region = Region(report, off)
+    corner = (slice(0, 220), slice(0, 700))  # the top-left corner of the region
+    text_on = color_mask(region.crop(on)[corner], report["status_color"]).sum()
+    text_off = color_mask(region.crop(off)[corner], report["status_color"]).sum()
+    assert text_on > 50, "the probe's status line is missing from the top-left corner"
+    assert text_off < 5, "the status line is drawn although the probe is off"
+
+
+def check_hit_dot(report, off, on):
+    region = Region(report, off)
+    assert report["hit_point"] is not None
+    row, col = region.pixel(*report["hit_point"])
+    window = (slice(row - 8, row + 9), slice(col - 8, col + 9))
+    assert color_mask(region.crop(on)[window], report["hit_color"], 0.2).sum() > 10
+    assert color_mask(region.crop(off)[window], report["hit_color"], 0.2).sum() == 0
+
+
+@pytest.mark.parametrize("structure", ["aabb", "octree", "bvh"])
+def test_overlay_and_probe_in_the_viewport(structure, empty_blend):
+    if not structure_available(structure):
+        pytest.skip(f"the core has no {structure} yet")
+    report, off, on = shoot(structure, empty_blend)
+    assert report["status"] == "hit_object"  # the ray object aims at the sphere
+    check_boxes_drawn(report, off)
+    check_status_text(report, off, on)
+    check_hit_dot(report, off, on)
