@@ -22,12 +22,15 @@ report = {"stats_sent": [], "errors": []}
 ticks = {"waited": 0, "after_done": 0}
 
 
-def record_stats(self, stats, info):
-    report["stats_sent"].append(f"{stats} {info}".strip())
-    bpy.types.RenderEngine.update_stats(self, stats, info)
+def record_stats_line(stats):
+    line = original_stats_line(stats)
+    report["stats_sent"].append(line)
+    return line
 
 
-render_engine.RaylabRenderEngine.update_stats = record_stats
+# RNA methods such as update_stats cannot be wrapped from Python: record the line the engine sends.
+original_stats_line = render_engine.stats_line
+render_engine.stats_line = record_stats_line
 
 
 def finish():

@@ -74,10 +74,9 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         if result.cancelled:
             self.update_stats("", f"raylab {props.structure}: cancelled")
             return
-        line = stats_line(result.stats)
         scene.original["raylab_last_render"] = id_property_stats(result.stats, props.super_sampling)
-        self.update_stats(line, "")
-        print(line)
+        # The info text is what Blender shows in the render window and prints in background renders.
+        self.update_stats("", stats_line(result.stats))
 
     def _progress(self, fraction):
         self.update_progress(fraction)
@@ -87,7 +86,7 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         height, width = image.shape[:2]
         result = self.begin_result(0, 0, width, height)
         # raylab's row 0 is the top of the picture; Blender's buffers start at the bottom row.
-        result.layers[0].passes["Combined"].rect.foreach_set(np.ascontiguousarray(image[::-1]).ravel())
+        result.layers[0].passes["Combined"].rect.foreach_set(np.ascontiguousarray(image[::-1]).reshape(-1, 4))
         self.end_result(result)
 
 
