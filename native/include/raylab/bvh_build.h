@@ -1,0 +1,39 @@
+// The binned SAH builder (Wald 2007), generic over primitive bounds: the mesh BVH builds it over
+// triangle boxes and the scene's top level over instance world boxes.
+#pragma once
+
+#include "raylab/geometry.h"
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace raylab {
+
+// A compact binary node (32 bytes). An inner node's children are nodes[index] and nodes[index + 1];
+// a leaf (count > 0) holds prims[index .. index + count).
+struct BvhNode {
+  glm::vec3 lo;
+  uint32_t index;
+  glm::vec3 hi;
+  uint32_t count;
+
+  bool leaf() const { return count != 0; }
+  Bounds bounds() const { return {lo, hi}; }
+};
+static_assert(sizeof(BvhNode) == 32);
+
+struct BinaryBvh {
+  std::vector<BvhNode> nodes;   // nodes[0] is the root; empty when there is no primitive
+  std::vector<uint32_t> prims;  // primitive indices in leaf order, each exactly once
+};
+
+// Leaves hold at most `max_leaf_size` primitives; below that the SAH decides whether to split.
+// Primitives with empty bounds are left out (nothing can hit them). The result is the same for any
+// number of threads: subtrees are built in parallel into slots fixed by their primitive ranges.
+BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_leaf_size);
+
+// The bytes build_binary_bvh needs at most for n primitives, for checking a memory budget first.
+size_t binary_bvh_build_bytes(size_t n);
+
+}  // namespace raylab

@@ -1,0 +1,243 @@
+#include "raylab/bvh.h"
+#include "raylab/mesh_io.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <random>
+
+using namespace raylab;
+
+namespace {
+
+MeshPtr load(const char* name) {
+  return std::make_shared<const TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/" + name));
+}
+
+BuildSettings settings_for(StructureKind kind, int leaf_size = 8, TriangleTest test = TriangleTest::Watertight) {
+  BuildSettings s;
+  s.kind = kind;
+  s.leaf_size = leaf_size;
+  s.triangle_test = test;
+  return s;
+}
+
+// Rays from around the mesh aimed at points inside its box (mostly hits), and some in any direction.
+std::vector<Ray> random_rays(const Bounds& box, size_t n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  const glm::vec3 extent = glm::max(box.extent(), glm::vec3(1e-3f * glm::max(glm::max(box.extent().x, box.extent().y), box.extent().z)));
+  auto point_in = [&](glm::vec3 lo, glm::vec3 size) {
+    return lo + glm::vec3(unit(rng), unit(rng), unit(rng)) * size;
+  };
+  std::vector<Ray> rays(n);
+  for (size_t i = 0; i < n; ++i) {
+    Ray& r = rays[i];
+    r.origin = point_in(box.lo - extent, 3.0f * extent);
+    const glm::vec3 target = (i % 4 == 3) ? point_in(glm::vec3(-1.0f), glm::vec3(2.0f)) + r.origin
+                                          : point_in(box.lo, extent);
+    r.direction = target - r.origin;
+    if (glm::length(r.direction) == 0.0f) r.direction = {0, 0, 1};
+  }
+  return rays;
+}
+
+// Closest and any hit of `s` equal brute force exactly (same triangle, t, u, v) on every ray.
+void expect_same_as_brute_force(const Structure& s, const std::vector<Ray>& rays) {
+  const auto brute = build_structure(s.mesh_ptr(), settings_for(StructureKind::None, 8, s.settings().triangle_test));
+  size_t hits = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit expected, got;
+    const bool e = brute->closest(rays[i], expected);
+    const bool g = s.closest(rays[i], got);
+    ASSERT_EQ(e, g) << "ray " << i;
+    ASSERT_EQ(brute->any(rays[i]), s.any(rays[i])) << "ray " << i;
+    if (!e) continue;
+    ++hits;
+    ASSERT_EQ(expected.triangle, got.triangle) << "ray " << i;
+    ASSERT_EQ(expected.t, got.t) << "ray " << i;
+    ASSERT_EQ(expected.u, got.u) << "ray " << i;
+    ASSERT_EQ(expected.v, got.v) << "ray " << i;
+  }
+  EXPECT_GT(hits, rays.size() / 8);  // the rays really exercise the traversal
+}
+
+// Checks the tree's invariants: each triangle exactly once, leaf sizes, boxes enclosing their content.
+void expect_well_formed(const Bvh& bvh, uint32_t leaf_size) {
+  const BinaryBvh& tree = bvh.tree();
+  const TriangleMesh& mesh = bvh.mesh();
+  std::vector<int> seen(mesh.triangle_count(), 0);
+  ASSERT_EQ(tree.prims.size(), mesh.triangle_count());
+  for (const BvhNode& node : tree.nodes) {
+    const Bounds box = node.bounds();
+    if (node.leaf()) {
+      EXPECT_LE(node.count, leaf_size);
+      for (uint32_t i = node.index; i < node.index + node.count; ++i) {
+        ASSERT_LT(tree.prims[i], mesh.triangle_count());
+        ++seen[tree.prims[i]];
+        const Bounds tb = mesh.triangle_bounds(tree.prims[i]);
+        EXPECT_TRUE(box.contains(tb.lo) && box.contains(tb.hi));
+      }
+    } else {
+      for (uint32_t c = node.index; c < node.index + 2; ++c) {
+        ASSERT_LT(c, tree.nodes.size());
+        EXPECT_TRUE(box.contains(tree.nodes[c].lo) && box.contains(tree.nodes[c].hi));
+      }
+    }
+  }
+  for (size_t t = 0; t < seen.size(); ++t) ASSERT_EQ(seen[t], 1) << "triangle " << t;
+}
+
+const Bvh& as_bvh(const Structure& s) { return dynamic_cast<const Bvh&>(s); }
+
+}  // namespace
+
+TEST(BvhBuild, EveryTriangleAppearsExactlyOnceInTheLeaves) {
+  for (int leaf_size : {1, 4, 8}) {
+    const auto s = build_structure(load("bunny.obj"), settings_for(StructureKind::Bvh, leaf_size));
+    expect_well_formed(as_bvh(*s), uint32_t(leaf_size));
+  }
+}
+
+TEST(BvhBuild, IsDeterministic) {
+  const MeshPtr mesh = load("bunny_hr.obj");
+  const auto a = build_structure(mesh, settings_for(StructureKind::Bvh));
+  const auto b = build_structure(mesh, settings_for(StructureKind::Bvh));
+  const BinaryBvh& ta = as_bvh(*a).tree();
+  const BinaryBvh& tb = as_bvh(*b).tree();
+  ASSERT_EQ(ta.nodes.size(), tb.nodes.size());
+  EXPECT_EQ(0, std::memcmp(ta.nodes.data(), tb.nodes.data(), ta.nodes.size() * sizeof(BvhNode)));
+  EXPECT_EQ(ta.prims, tb.prims);
+}
+
+TEST(BvhBuild, BoxesReportDepthsLeavesAndSubtreeCounts) {
+  const auto s = build_structure(load("sphere.obj"), settings_for(StructureKind::Bvh, 4));
+  const std::vector<BoxInfo> boxes = s->boxes();
+  ASSERT_FALSE(boxes.empty());
+  EXPECT_EQ(boxes[0].depth, 0);
+  EXPECT_EQ(boxes[0].triangle_count, s->mesh().triangle_count());
+  uint32_t in_leaves = 0;
+  int max_depth = 0;
+  for (const BoxInfo& b : boxes) {
+    if (b.leaf) in_leaves += b.triangle_count;
+    max_depth = std::max(max_depth, b.depth);
+  }
+  EXPECT_EQ(in_leaves, s->mesh().triangle_count());
+  EXPECT_GE(max_depth, 8);  // 1280 triangles in leaves of at most 4
+  EXPECT_GT(s->memory_bytes(), 0u);
+}
+
+TEST(BvhBuild, OverTheMemoryBudgetIsABuildError) {
+  BuildSettings settings = settings_for(StructureKind::Bvh);
+  settings.memory_budget = 1000;
+  EXPECT_THROW(build_structure(load("bunny.obj"), settings), BuildError);
+}
+
+TEST(BvhBuild, EmptyMeshMissesEverything) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  const auto s = build_structure(mesh, settings_for(StructureKind::Bvh));
+  Hit h;
+  EXPECT_FALSE(s->closest(Ray{}, h));
+  EXPECT_FALSE(s->any(Ray{}));
+  EXPECT_EQ(s->story(Ray{}).status, RayStatus::MissedRoot);
+}
+
+TEST(BvhDegenerate, IdenticalTrianglesTerminateAndKeepTheLowestIndex) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  mesh->vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh->triangles.assign(5000, glm::uvec3(0, 1, 2));
+  const auto s = build_structure(mesh, settings_for(StructureKind::Bvh, 4));
+  expect_well_formed(as_bvh(*s), 4);
+  Ray ray;
+  ray.origin = {0.25f, 0.25f, 1.0f};
+  ray.direction = {0, 0, -1};
+  Hit h;
+  ASSERT_TRUE(s->closest(ray, h));
+  EXPECT_EQ(h.triangle, 0u);
+  EXPECT_EQ(h.t, 1.0f);
+  expect_same_as_brute_force(*s, random_rays(mesh->bounds(), 300, 7));
+}
+
+TEST(BvhDegenerate, FlatGridMatchesBruteForce) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  const int n = 40;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) mesh->vertices.push_back({float(x) / n, float(y) / n, 0.0f});
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const uint32_t a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
+      mesh->triangles.push_back({a, b, d});
+      mesh->triangles.push_back({a, d, c});
+    }
+  const auto s = build_structure(mesh, settings_for(StructureKind::Bvh));
+  expect_well_formed(as_bvh(*s), 8);
+  expect_same_as_brute_force(*s, random_rays(mesh->bounds(), 3000, 11));
+  // Straight down through grid vertices and edges: the ties the index tie-break settles.
+  std::vector<Ray> axis_rays;
+  for (int i = 0; i <= 2 * n; ++i) {
+    Ray r;
+    r.origin = {float(i) / (2 * n), float(i % 7) / 7, 1.0f};
+    r.direction = {0, 0, -1};
+    axis_rays.push_back(r);
+  }
+  expect_same_as_brute_force(*s, axis_rays);
+}
+
+TEST(BvhDegenerate, CoordinatesNearAMillionMatchBruteForce) {
+  auto mesh = std::make_shared<TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/bunny.obj"));
+  for (glm::vec3& v : mesh->vertices) v = v * 10.0f + glm::vec3(1e6f, -1e6f, 1e6f);
+  const auto s = build_structure(mesh, settings_for(StructureKind::Bvh));
+  expect_well_formed(as_bvh(*s), 8);
+  expect_same_as_brute_force(*s, random_rays(mesh->bounds(), 2000, 3));
+}
+
+TEST(BvhTraversal, MatchesBruteForceOnShippedMeshes) {
+  for (const char* name : {"bunny.obj", "teapot.obj", "spot_low_resolution.obj"}) {
+    SCOPED_TRACE(name);
+    for (int leaf_size : {1, 8}) {
+      const auto s = build_structure(load(name), settings_for(StructureKind::Bvh, leaf_size));
+      expect_same_as_brute_force(*s, random_rays(s->mesh().bounds(), 2000, 42 + leaf_size));
+    }
+  }
+}
+
+TEST(BvhTraversal, MollerTrumboreMatchesItsBruteForce) {
+  const auto s = build_structure(load("teapot.obj"), settings_for(StructureKind::Bvh, 8, TriangleTest::MollerTrumbore));
+  expect_same_as_brute_force(*s, random_rays(s->mesh().bounds(), 2000, 5));
+}
+
+TEST(BvhTraversal, CountsAndStoryFollowTheSameTraversal) {
+  const auto s = build_structure(load("bunny.obj"), settings_for(StructureKind::Bvh));
+  const Bounds box = s->mesh().bounds();
+  Ray ray;
+  ray.origin = box.center() - glm::vec3(0, 0, 2.0f * box.extent().z);
+  ray.direction = {0, 0, 1};
+  const RayStory story = s->story(ray);
+  ASSERT_EQ(story.status, RayStatus::HitObject);
+  Hit h;
+  ASSERT_TRUE(s->closest(ray, h));
+  EXPECT_EQ(story.hit.triangle, h.triangle);
+  EXPECT_EQ(story.hit.t, h.t);
+  TraversalStats stats;
+  s->closest(ray, h, stats);
+  EXPECT_EQ(stats.rays, 1u);
+  EXPECT_EQ(stats.box_tests, story.boxes.size());
+  EXPECT_EQ(stats.nodes_visited, story.nodes.size());
+  EXPECT_EQ(stats.triangle_tests, story.triangles.size());
+  EXPECT_LT(stats.triangle_tests, s->mesh().triangle_count() / 10);  // the hierarchy prunes
+  EXPECT_EQ(story.boxes.front().node, 0u);
+  EXPECT_EQ(story.nodes.front().node, 0u);
+  for (const StoryNode& n : story.nodes) {
+    // Every entered node had its box tested and hit first.
+    EXPECT_TRUE(std::any_of(story.boxes.begin(), story.boxes.end(),
+                            [&](const StoryBox& b) { return b.node == n.node && b.hit; }));
+  }
+
+  Ray away = ray;
+  away.direction = {0, 0, -1};
+  const RayStory missed = s->story(away);
+  EXPECT_EQ(missed.status, RayStatus::MissedRoot);
+  EXPECT_EQ(missed.stats.rays_ignored, 1u);
+  EXPECT_TRUE(missed.triangles.empty());
+}
