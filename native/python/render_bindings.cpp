@@ -1,3 +1,395 @@
+// The renderer: raylab.render(scene, camera, lights, materials, settings, progress) and
+// raylab.write_image(path, image). Every dict is read here, with the GIL held, so that a missing or
+// unknown key or a bad value is a ValueError naming it; the render itself runs on a worker thread
+// while the calling thread, with the GIL released, wakes a few times a second to report progress.
 #include "bindings.h"
-// Placeholder until the renderer bindings land.
-void raylab::python::bind_render(pybind11::module_&) {}
+
+#include "raylab/image_io.h"
+#include "raylab/renderer.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace raylab::python {
+
+namespace py = pybind11;
+
+namespace {
+
+[[noreturn]] void value_error(const std::string& message) { throw py::value_error(message); }
+
+// Reads one settings dict: every key it does not know is an error, as is a missing required key.
+class Fields {
+ public:
+  Fields(py::handle object, std::string what) : what_(std::move(what)) {
+    if (!py::isinstance<py::dict>(object)) value_error(what_ + " must be a dict");
+    dict_ = py::reinterpret_borrow<py::dict>(object);
+    for (auto item : dict_) {
+      if (!py::isinstance<py::str>(item.first)) value_error(what_ + " has a key that is not a string");
+      unused_.insert(item.first.cast<std::string>());
+    }
+  }
+
+  double number(const char* key, double fallback) {
+    const py::object v = take(key);
+    if (!v) return fallback;
+    try {
+      const double d = v.cast<double>();
+      if (!std::isfinite(d)) value_error(name(key) + " must be finite");
+      return d;
+    } catch (const py::cast_error&) {
+      value_error(name(key) + " must be a number");
+    }
+  }
+  int integer(const char* key, int fallback) {
+    const py::object v = take(key);
+    if (!v) return fallback;
+    if (py::isinstance<py::float_>(v)) value_error(name(key) + " must be an integer");
+    try {
+      return v.cast<int>();
+    } catch (const py::cast_error&) {
+      value_error(name(key) + " must be an integer (that fits in 32 bits)");
+    }
+  }
+  bool boolean(const char* key, bool fallback) {
+    const py::object v = take(key);
+    if (!v) return fallback;
+    try {
+      return v.cast<bool>();
+    } catch (const py::cast_error&) {
+      value_error(name(key) + " must be True or False");
+    }
+  }
+  glm::vec3 color(const char* key, glm::vec3 fallback) {
+    const py::object v = take(key);
+    if (!v) return fallback;
+    // Blender colours come with 3 or 4 channels; alpha is not used.
+    const auto a = as_array(v, key);
+    if (a.ndim() != 1 || (a.shape(0) != 3 && a.shape(0) != 4)) value_error(name(key) + " must have 3 or 4 components");
+    const glm::vec3 c(float(a.at(0)), float(a.at(1)), float(a.at(2)));
+    if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z)) value_error(name(key) + " must be finite");
+    return c;
+  }
+  // (4, 4) row-major (numpy's and Blender's layout) to glm's column-major matrix. Required.
+  glm::mat4 matrix(const char* key) {
+    const py::object v = take(key);
+    if (!v) value_error(what_ + " is missing the key '" + key + "'");
+    const auto a = as_array(v, key);
+    if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4) value_error(name(key) + " must be a (4, 4) matrix");
+    glm::mat4 m;
+    for (int row = 0; row < 4; ++row)
+      for (int col = 0; col < 4; ++col) {
+        const double x = a.at(row, col);
+        if (!std::isfinite(x)) value_error(name(key) + " has a NaN or infinite entry");
+        m[col][row] = float(x);
+      }
+    return m;
+  }
+  // One of `choices`; returns its position.
+  int choice(const char* key, std::initializer_list<const char*> choices, int fallback, bool required = false) {
+    const py::object v = take(key);
+    if (!v) {
+      if (required) value_error(what_ + " is missing the key '" + key + "'");
+      return fallback;
+    }
+    std::string list;
+    if (py::isinstance<py::str>(v)) {
+      const std::string s = v.cast<std::string>();
+      int i = 0;
+      for (const char* c : choices) {
+        if (s == c) return i;
+        ++i;
+      }
+    }
+    for (const char* c : choices) list += std::string(list.empty() ? "" : ", ") + "'" + c + "'";
+    value_error(name(key) + " must be one of " + list + ", got " + py::repr(v).cast<std::string>());
+  }
+  // Call after reading every key.
+  void finish() const {
+    if (!unused_.empty()) value_error(what_ + " has an unknown key '" + *unused_.begin() + "'");
+  }
+
+ private:
+  py::object take(const char* key) {
+    unused_.erase(key);
+    return dict_.contains(key) ? py::object(dict_[key]) : py::object();
+  }
+  std::string name(const char* key) const { return what_ + "['" + key + "']"; }
+  py::array_t<double> as_array(const py::object& v, const char* key) const {
+    try {
+      return py::array_t<double, py::array::c_style | py::array::forcecast>(v);
+    } catch (const py::error_already_set&) {
+      value_error(name(key) + " must be an array of numbers");
+    }
+  }
+
+  py::dict dict_;
+  std::string what_;
+  std::set<std::string> unused_;
+};
+
+CameraSettings camera_from_dict(py::handle object) {
+  Fields f(object, "camera");
+  CameraSettings c;
+  c.type = f.choice("type", {"PERSP", "ORTHO"}, 0) == 0 ? CameraType::Perspective : CameraType::Orthographic;
+  c.matrix_world = f.matrix("matrix_world");
+  c.lens = float(f.number("lens", c.lens));
+  c.sensor_width = float(f.number("sensor_width", c.sensor_width));
+  c.sensor_height = float(f.number("sensor_height", c.sensor_height));
+  c.sensor_fit = SensorFit(f.choice("sensor_fit", {"AUTO", "HORIZONTAL", "VERTICAL"}, 0));
+  c.shift_x = float(f.number("shift_x", c.shift_x));
+  c.shift_y = float(f.number("shift_y", c.shift_y));
+  c.ortho_scale = float(f.number("ortho_scale", c.ortho_scale));
+  c.clip_start = float(f.number("clip_start", c.clip_start));
+  c.clip_end = float(f.number("clip_end", c.clip_end));
+  c.resolution_x = f.integer("resolution_x", c.resolution_x);
+  c.resolution_y = f.integer("resolution_y", c.resolution_y);
+  c.resolution_percentage = f.integer("resolution_percentage", c.resolution_percentage);
+  c.pixel_aspect_x = float(f.number("pixel_aspect_x", c.pixel_aspect_x));
+  c.pixel_aspect_y = float(f.number("pixel_aspect_y", c.pixel_aspect_y));
+  f.finish();
+  c.validate();
+  return c;
+}
+
+std::vector<Light> lights_from_list(py::handle object) {
+  if (!py::isinstance<py::sequence>(object) || py::isinstance<py::str>(object) || py::isinstance<py::dict>(object))
+    value_error("lights must be a list of dicts");
+  std::vector<Light> lights;
+  const auto seq = py::reinterpret_borrow<py::sequence>(object);
+  for (size_t i = 0; i < seq.size(); ++i) {
+    const std::string what = "lights[" + std::to_string(i) + "]";
+    Fields f(seq[i], what);
+    Light l;
+    l.type = LightType(f.choice("type", {"POINT", "SUN", "SPOT", "AREA"}, 0, true));
+    l.matrix_world = f.matrix("matrix_world");
+    l.color = f.color("color", l.color);
+    l.energy = float(f.number("energy", l.energy));
+    l.radius = float(f.number("radius", l.radius));
+    l.spot_size = float(f.number("spot_size", l.spot_size));
+    l.spot_blend = float(f.number("spot_blend", l.spot_blend));
+    l.size = float(f.number("size", l.size));
+    l.samples = f.integer("samples", l.samples);
+    l.shadows = f.boolean("shadows", l.shadows);
+    f.finish();
+    try {
+      l.validate();
+    } catch (const std::invalid_argument& e) {
+      value_error(what + ": " + e.what());
+    }
+    lights.push_back(l);
+  }
+  return lights;
+}
+
+std::vector<Material> materials_from_list(py::handle object) {
+  if (!py::isinstance<py::sequence>(object) || py::isinstance<py::str>(object) || py::isinstance<py::dict>(object))
+    value_error("materials must be a list of dicts");
+  std::vector<Material> materials;
+  const auto seq = py::reinterpret_borrow<py::sequence>(object);
+  for (size_t i = 0; i < seq.size(); ++i) {
+    const std::string what = "materials[" + std::to_string(i) + "]";
+    Fields f(seq[i], what);
+    Material m;
+    m.diffuse = f.color("diffuse", m.diffuse);
+    m.specular = float(f.number("specular", m.specular));
+    m.shininess = float(f.number("shininess", m.shininess));
+    m.metallic = float(f.number("metallic", m.metallic));
+    m.reflectivity = float(f.number("reflectivity", m.reflectivity));
+    m.transmission = float(f.number("transmission", m.transmission));
+    m.ior = float(f.number("ior", m.ior));
+    m.ambient = float(f.number("ambient", m.ambient));
+    f.finish();
+    try {
+      m.validate();
+    } catch (const std::invalid_argument& e) {
+      value_error(what + ": " + e.what());
+    }
+    materials.push_back(m);
+  }
+  return materials;
+}
+
+RenderSettings settings_from_dict(py::handle object) {
+  RenderSettings s;
+  if (object.is_none()) return s;
+  Fields f(object, "settings");
+  s.super_sampling = f.integer("super_sampling", s.super_sampling);
+  s.max_depth = f.integer("max_depth", s.max_depth);
+  s.shadows = f.boolean("shadows", s.shadows);
+  s.background = f.color("background", s.background);
+  s.ambient = f.color("ambient", s.ambient);
+  s.robust_offset = f.boolean("robust_offset", s.robust_offset);
+  s.fixed_epsilon = float(f.number("fixed_epsilon", s.fixed_epsilon));
+  s.threads = f.integer("threads", s.threads);
+  s.tile_size = f.integer("tile_size", s.tile_size);
+  f.finish();
+  try {
+    s.validate();
+  } catch (const std::invalid_argument& e) {
+    value_error(std::string("settings: ") + e.what());
+  }
+  return s;
+}
+
+// The native scene behind either the bound class or api.py's wrapper of it (its `native`).
+const Scene& scene_of(py::handle object) {
+  if (py::isinstance<Scene>(object)) return object.cast<const Scene&>();
+  if (py::hasattr(object, "native")) {
+    const py::object native = object.attr("native");
+    if (py::isinstance<Scene>(native)) return native.cast<const Scene&>();
+  }
+  throw py::type_error("scene must be a raylab.Scene");
+}
+
+struct PyRenderResult {
+  py::array_t<float> image;
+  bool cancelled;
+  py::dict stats;
+  py::array_t<int32_t> instance;
+  py::array_t<float> distance;
+};
+
+template <class T>
+py::array_t<T> to_array(const std::vector<T>& data, std::vector<py::ssize_t> shape) {
+  py::array_t<T> a(shape);
+  std::copy(data.begin(), data.end(), a.mutable_data());
+  return a;
+}
+
+py::dict stats_dict(const RenderStats& s) {
+  py::dict d;
+  d["rays_primary"] = s.rays_primary;
+  d["rays_shadow"] = s.rays_shadow;
+  d["rays_reflection"] = s.rays_reflection;
+  d["rays_refraction"] = s.rays_refraction;
+  d["rays_ignored"] = s.traversal.rays_ignored;
+  d["box_tests"] = s.traversal.box_tests;
+  d["triangle_tests"] = s.traversal.triangle_tests;
+  d["nodes_visited"] = s.traversal.nodes_visited;
+  d["build_seconds"] = s.build_seconds;
+  d["render_seconds"] = s.render_seconds;
+  d["memory_bytes"] = s.memory_bytes;
+  d["structure"] = s.structure;
+  d["width"] = s.width;
+  d["height"] = s.height;
+  return d;
+}
+
+PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dict, py::handle light_list,
+                                  py::handle material_list, py::handle settings_dict, py::handle progress) {
+  const Scene& scene = scene_of(scene_object);
+  const CameraSettings camera = camera_from_dict(camera_dict);
+  const std::vector<Light> lights = lights_from_list(light_list);
+  const std::vector<Material> materials = materials_from_list(material_list);
+  const RenderSettings settings = settings_from_dict(settings_dict);
+  const bool reports = !progress.is_none();
+  if (reports && !PyCallable_Check(progress.ptr())) throw py::type_error("progress must be callable or None");
+
+  RenderProgress state;
+  std::optional<py::error_already_set> progress_error;
+  // A true answer or an exception cancels; the exception is raised again once the render stopped.
+  const auto report = [&] {
+    try {
+      if (py::bool_(progress(state.fraction()))) state.cancel();
+    } catch (py::error_already_set& e) {
+      progress_error.emplace(std::move(e));
+      state.cancel();
+    }
+  };
+  if (reports) report();  // a caller that cancels at once gets no work done
+
+  RenderResult result;
+  std::exception_ptr failure;
+  {
+    py::gil_scoped_release release;
+    std::mutex mutex;
+    std::condition_variable finished;
+    bool done = false;
+    std::thread worker([&] {
+      try {
+        result = render(scene, camera, lights, materials, settings, &state);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      std::lock_guard lock(mutex);
+      done = true;
+      finished.notify_all();
+    });
+    std::unique_lock lock(mutex);
+    while (!finished.wait_for(lock, std::chrono::milliseconds(100), [&] { return done; })) {
+      if (!reports || state.cancel_requested.load()) continue;
+      lock.unlock();
+      {
+        py::gil_scoped_acquire acquire;
+        report();
+      }
+      lock.lock();
+    }
+    lock.unlock();
+    worker.join();
+  }
+  if (progress_error) throw std::move(*progress_error);
+  if (failure) std::rethrow_exception(failure);
+
+  const py::ssize_t h = result.height, w = result.width;
+  PyRenderResult out{to_array(result.image, {h, w, 4}), result.cancelled, stats_dict(result.stats),
+                     to_array(result.instance, {h, w}), to_array(result.distance, {h, w})};
+  if (out.stats["structure"].cast<std::string>().empty() && py::hasattr(scene_object, "structure"))
+    out.stats["structure"] = py::str(scene_object.attr("structure"));
+  return out;
+}
+
+void write_image_from_python(py::handle path_object, py::handle image_object) {
+  const std::string path = py::module_::import("os").attr("fspath")(path_object).cast<std::string>();
+  py::array_t<float, py::array::c_style | py::array::forcecast> image;
+  try {
+    image = py::array_t<float, py::array::c_style | py::array::forcecast>(py::reinterpret_borrow<py::object>(image_object));
+  } catch (const py::error_already_set&) {
+    value_error("image must be an array of numbers");
+  }
+  if (image.ndim() != 3 || (image.shape(2) != 3 && image.shape(2) != 4) || image.shape(0) == 0 || image.shape(1) == 0)
+    value_error("image must be (H, W, 4) or (H, W, 3) with H, W > 0");
+  const int h = int(image.shape(0)), w = int(image.shape(1)), channels = int(image.shape(2));
+  std::vector<float> rgba(size_t(w) * h * 4, 1.0f);  // a missing alpha is opaque
+  const float* src = image.data();
+  for (size_t p = 0; p < size_t(w) * h; ++p)
+    for (int c = 0; c < channels; ++c) rgba[p * 4 + c] = src[p * channels + c];
+  py::gil_scoped_release release;
+  write_image(path, rgba, w, h);
+}
+
+}  // namespace
+
+void bind_render(py::module_& m) {
+  py::class_<PyRenderResult>(m, "RenderResult", "A rendered image with its statistics.")
+      .def_readonly("image", &PyRenderResult::image, "(H, W, 4) float32 linear RGBA, row 0 the top row")
+      .def_readonly("cancelled", &PyRenderResult::cancelled)
+      .def_readonly("stats", &PyRenderResult::stats)
+      .def_readonly("instance", &PyRenderResult::instance, "(H, W) int32 instance of the pixel-centre ray, -1 on miss")
+      .def_readonly("distance", &PyRenderResult::distance, "(H, W) float32 distance of that hit, inf on miss")
+      .def("__repr__", [](const PyRenderResult& r) {
+        return "<raylab.RenderResult " + std::to_string(r.image.shape(1)) + "x" + std::to_string(r.image.shape(0)) +
+               (r.cancelled ? " cancelled>" : ">");
+      });
+
+  m.def("render", &render_from_python, py::arg("scene"), py::arg("camera"), py::arg("lights"), py::arg("materials"),
+        py::arg("settings") = py::none(), py::arg("progress") = py::none(),
+        "Renders a committed raylab.Scene; progress(fraction) is called several times a second and "
+        "cancels the render by returning True.");
+  m.def("write_image", &write_image_from_python, py::arg("path"), py::arg("image"),
+        "Writes an (H, W, 4) linear image: .png 8-bit sRGB-encoded, .exr float.");
+}
+
+}  // namespace raylab::python

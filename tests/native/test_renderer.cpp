@@ -1,0 +1,305 @@
+#include "raylab/camera.h"
+#include "raylab/ray_offset.h"
+#include "raylab/renderer.h"
+#include "raylab/scene.h"
+#include "raylab/triangle_intersection.h"
+
+#include <glm/gtc/constants.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace raylab;
+
+namespace {
+
+// Slope of a camera-space direction: x / -z and y / -z.
+glm::vec2 slope(const Ray& r) { return {r.direction.x / -r.direction.z, r.direction.y / -r.direction.z}; }
+
+CameraSettings camera_of(int w, int h) {
+  CameraSettings c;
+  c.resolution_x = w;
+  c.resolution_y = h;
+  return c;
+}
+
+}  // namespace
+
+TEST(Camera, CentreRayOfDefaultCameraLooksDownMinusZ) {
+  const Camera cam(camera_of(1920, 1080));
+  const Ray r = cam.ray(960.0f, 540.0f);
+  EXPECT_EQ(r.origin, glm::vec3(0.0f));
+  EXPECT_NEAR(r.direction.x, 0.0f, 1e-7f);
+  EXPECT_NEAR(r.direction.y, 0.0f, 1e-7f);
+  EXPECT_FLOAT_EQ(r.direction.z, -1.0f);
+  EXPECT_FLOAT_EQ(r.tmin, 0.1f);
+  EXPECT_FLOAT_EQ(r.tmax, 1000.0f);
+}
+
+TEST(Camera, CentreRayFollowsMatrixWorld) {
+  CameraSettings s = camera_of(64, 48);
+  // Blender's default camera orientation, moved: local -Z turned to world -Y... by a rotation about X.
+  s.matrix_world = glm::translate(glm::mat4(1.0f), glm::vec3(1, 2, 3)) *
+                   glm::rotate(glm::mat4(1.0f), glm::half_pi<float>(), glm::vec3(1, 0, 0));
+  const Ray r = Camera(s).ray(32.0f, 24.0f);
+  EXPECT_NEAR(glm::distance(r.origin, glm::vec3(1, 2, 3)), 0.0f, 1e-6f);
+  EXPECT_NEAR(glm::distance(r.direction, glm::vec3(0, 1, 0)), 0.0f, 1e-6f);
+  // The top row of the picture is towards the camera's +Y, which the rotation turned to +Z.
+  EXPECT_GT(Camera(s).ray(32.0f, 0.0f).direction.z, 0.0f);
+}
+
+TEST(Camera, SensorFitAutoPutsSensorWidthAcrossTheLargerDimension) {
+  // 36 mm over a 50 mm lens: the fitted dimension spans slopes -0.36..0.36.
+  const Camera landscape(camera_of(1920, 1080));
+  EXPECT_NEAR(slope(landscape.ray(1920.0f, 540.0f)).x, 0.36f, 1e-6f);
+  EXPECT_NEAR(slope(landscape.ray(960.0f, 0.0f)).y, 0.36f * 1080.0f / 1920.0f, 1e-6f);
+  const Camera portrait(camera_of(1080, 1920));
+  EXPECT_NEAR(slope(portrait.ray(540.0f, 0.0f)).y, 0.36f, 1e-6f);
+  EXPECT_NEAR(slope(portrait.ray(1080.0f, 960.0f)).x, 0.36f * 1080.0f / 1920.0f, 1e-6f);
+}
+
+TEST(Camera, SensorFitHorizontalAndVertical) {
+  CameraSettings s = camera_of(1080, 1920);
+  s.sensor_fit = SensorFit::Horizontal;
+  EXPECT_NEAR(slope(Camera(s).ray(1080.0f, 960.0f)).x, 0.36f, 1e-6f);
+  s = camera_of(1920, 1080);
+  s.sensor_fit = SensorFit::Vertical;  // sensor_height (24 mm) across y
+  EXPECT_NEAR(slope(Camera(s).ray(960.0f, 0.0f)).y, 0.24f, 1e-6f);
+  EXPECT_NEAR(slope(Camera(s).ray(1920.0f, 540.0f)).x, 0.24f * 1920.0f / 1080.0f, 1e-5f);
+}
+
+TEST(Camera, ShiftIsAFractionOfTheLargerDimension) {
+  for (auto [w, h] : {std::pair{1920, 1080}, std::pair{1080, 1920}}) {
+    CameraSettings s = camera_of(w, h);
+    s.shift_x = 0.5f;
+    s.shift_y = 0.25f;
+    const glm::vec2 centre = slope(Camera(s).ray(0.5f * w, 0.5f * h));
+    EXPECT_NEAR(centre.x, 0.5f * 0.72f, 1e-6f) << w << "x" << h;
+    EXPECT_NEAR(centre.y, 0.25f * 0.72f, 1e-6f) << w << "x" << h;
+  }
+}
+
+TEST(Camera, ResolutionPercentageScalesThePicture) {
+  CameraSettings s = camera_of(1920, 1080);
+  s.resolution_percentage = 50;
+  const Camera cam(s);
+  EXPECT_EQ(cam.width(), 960);
+  EXPECT_EQ(cam.height(), 540);
+  EXPECT_NEAR(slope(cam.ray(960.0f, 270.0f)).x, 0.36f, 1e-6f);
+}
+
+TEST(Camera, OrthographicRaysAreParallelAndSpanOrthoScale) {
+  CameraSettings s = camera_of(200, 100);
+  s.type = CameraType::Orthographic;
+  s.ortho_scale = 7.0f;
+  const Camera cam(s);
+  const Ray a = cam.ray(0.0f, 0.0f), b = cam.ray(200.0f, 100.0f), c = cam.ray(100.0f, 50.0f);
+  EXPECT_EQ(a.direction, glm::vec3(0, 0, -1));
+  EXPECT_EQ(b.direction, a.direction);
+  EXPECT_EQ(c.direction, a.direction);
+  EXPECT_NEAR(b.origin.x - a.origin.x, 7.0f, 1e-5f);
+  EXPECT_NEAR(a.origin.y - b.origin.y, 3.5f, 1e-5f);
+  EXPECT_NEAR(glm::length(c.origin), 0.0f, 1e-6f);
+}
+
+TEST(Camera, InvalidSettingsThrow) {
+  CameraSettings s = camera_of(0, 10);
+  EXPECT_THROW(Camera{s}, std::invalid_argument);
+  s = camera_of(10, 10);
+  s.lens = 0.0f;
+  EXPECT_THROW(Camera{s}, std::invalid_argument);
+}
+
+// A point on a random triangle at `scale`, offset along its normal, must lie strictly on the normal's
+// side of the triangle's plane (decided in double), and a ray leaving from it must not hit the triangle.
+TEST(RayOffset, OffsetPointIsOnTheNormalsSideAtEveryScale) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f), bary(0.0f, 1.0f);
+  for (double scale = 1e-3; scale <= 1e6; scale *= 10.0) {
+    int below = 0, rehit = 0;
+    for (int trial = 0; trial < 2000; ++trial) {
+      const glm::vec3 centre = float(scale) * glm::vec3(unit(rng), unit(rng), unit(rng)) * 4.0f;
+      const glm::vec3 p0 = centre + float(scale) * glm::vec3(unit(rng), unit(rng), unit(rng));
+      const glm::vec3 p1 = centre + float(scale) * glm::vec3(unit(rng), unit(rng), unit(rng));
+      const glm::vec3 p2 = centre + float(scale) * glm::vec3(unit(rng), unit(rng), unit(rng));
+      const glm::dvec3 nd = glm::cross(glm::dvec3(p1) - glm::dvec3(p0), glm::dvec3(p2) - glm::dvec3(p0));
+      if (glm::length(nd) < 1e-3 * scale * scale) continue;  // nearly degenerate
+      const glm::vec3 n = glm::vec3(glm::normalize(nd));
+      float u = bary(rng), v = bary(rng);
+      if (u + v > 1.0f) u = 1.0f - u, v = 1.0f - v;
+      const glm::vec3 p = p0 + u * (p1 - p0) + v * (p2 - p0);  // rounded: a few ulps off the plane
+      const glm::vec3 o = offset_ray(p, n);
+      if (glm::dot(glm::dvec3(o) - glm::dvec3(p0), glm::normalize(nd)) <= 0.0) ++below;
+      Ray r;
+      r.origin = o;
+      r.direction = glm::normalize(n + 0.9f * glm::vec3(unit(rng), unit(rng), unit(rng)));
+      if (glm::dot(r.direction, n) <= 0.05f) continue;
+      TriangleHit hit;
+      if (intersect_watertight(WatertightRay(r), p0, p1, p2, 0.0f, kInfinity, hit)) ++rehit;
+    }
+    EXPECT_EQ(below, 0) << "scale " << scale;
+    EXPECT_EQ(rehit, 0) << "scale " << scale;
+  }
+}
+
+TEST(RayOffset, FixedEpsilonVanishesAtLargeCoordinates) {
+  // Why the robust offset exists: 1e-4 is far below one ulp of 1e6 (0.0625).
+  const glm::vec3 p(1e6f, 1e6f, 1e6f), n(0, 0, 1);
+  EXPECT_EQ(offset_ray_fixed(p, n, 1e-4f), p);
+  EXPECT_GT(offset_ray(p, n).z, p.z);
+}
+
+TEST(Fresnel, SchlickAtNormalAndGrazingIncidence) {
+  EXPECT_NEAR(schlick_fresnel(1.0f, 1.0f, 1.5f), 0.04f, 1e-6f);
+  EXPECT_NEAR(schlick_fresnel(0.0f, 1.0f, 1.5f), 1.0f, 1e-6f);
+  EXPECT_LT(schlick_fresnel(0.7f, 1.0f, 1.5f), schlick_fresnel(0.3f, 1.0f, 1.5f));
+}
+
+TEST(Fresnel, TotalInternalReflectionBeyondTheCriticalAngle) {
+  // From glass (1.5) into air the critical angle is asin(1/1.5) = 41.8 degrees.
+  const glm::vec3 n(0, 0, 1);
+  const float beyond = glm::radians(45.0f), within = glm::radians(30.0f);
+  glm::vec3 out;
+  EXPECT_FALSE(refract_direction(glm::vec3(std::sin(beyond), 0, -std::cos(beyond)), n, 1.5f, out));
+  EXPECT_EQ(schlick_fresnel(std::cos(beyond), 1.5f, 1.0f), 1.0f);
+  ASSERT_TRUE(refract_direction(glm::vec3(std::sin(within), 0, -std::cos(within)), n, 1.5f, out));
+  EXPECT_NEAR(1.5f * std::sin(within), std::sqrt(out.x * out.x + out.y * out.y), 1e-5f);  // Snell
+  EXPECT_LT(out.z, 0.0f);
+  EXPECT_LT(schlick_fresnel(std::cos(within), 1.5f, 1.0f), 1.0f);
+}
+
+namespace {
+
+MeshPtr quad(float half, float z) {
+  auto m = std::make_shared<TriangleMesh>();
+  m->vertices = {{-half, -half, z}, {half, -half, z}, {half, half, z}, {-half, half, z}};
+  m->triangles = {{0, 1, 2}, {0, 2, 3}};
+  return m;
+}
+
+// A 2x2 floor at z = 0 seen from straight above, lit by a point light at height 3.
+struct FloorScene {
+  Scene scene;
+  CameraSettings camera;
+  std::vector<Light> lights{1};
+  std::vector<Material> materials{1};
+  RenderSettings settings;
+
+  FloorScene() {
+    scene.add_instance(scene.add_mesh(quad(1.0f, 0.0f)), glm::mat4(1.0f));
+    camera = camera_of(32, 32);
+    camera.type = CameraType::Orthographic;
+    camera.ortho_scale = 4.0f;  // the floor fills the middle half of the picture
+    camera.matrix_world = glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 5));
+    lights[0].matrix_world = glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 3));
+    materials[0].specular = 0.0f;
+    materials[0].ambient = 0.0f;
+    settings.background = glm::vec3(0.25f, 0.5f, 0.75f);
+  }
+  void add_occluder() {  // a small square at height 1.5 over the floor's centre
+    scene.add_instance(scene.add_mesh(quad(0.25f, 1.5f)), glm::mat4(1.0f));
+  }
+  RenderResult run() {
+    scene.commit();
+    return render(scene, camera, lights, materials, settings);
+  }
+};
+
+glm::vec3 pixel(const RenderResult& r, int x, int y) {
+  const float* p = &r.image[(size_t(y) * r.width + x) * 4];
+  return {p[0], p[1], p[2]};
+}
+
+}  // namespace
+
+TEST(Renderer, OneFloorIsLitAsThePointLightFalloffSays) {
+  FloorScene f;
+  const RenderResult r = f.run();
+  ASSERT_EQ(r.width, 32);
+  ASSERT_FALSE(r.cancelled);
+  // Pixel (16, 16) is centred on floor point (0.0625, -0.0625, 0): irradiance E = P cos / (4 pi r^2).
+  const glm::vec3 p(0.0625f, -0.0625f, 0.0f), light(0, 0, 3);
+  const float r2 = glm::dot(light - p, light - p);
+  const float e = 1000.0f * (3.0f / std::sqrt(r2)) / (4.0f * glm::pi<float>() * r2);
+  EXPECT_NEAR(pixel(r, 16, 16).x, 0.8f * e / glm::pi<float>(), 1e-4f);
+  EXPECT_EQ(r.image[(16 * 32 + 16) * 4 + 3], 1.0f);
+  EXPECT_EQ(r.instance[16 * 32 + 16], 0);
+  EXPECT_NEAR(r.distance[16 * 32 + 16], 5.0f, 1e-5f);
+  // Outside the floor: the background, no instance.
+  EXPECT_EQ(pixel(r, 1, 1), f.settings.background);
+  EXPECT_EQ(r.instance[1 * 32 + 1], -1);
+  EXPECT_EQ(r.stats.rays_primary, 32u * 32u);
+  EXPECT_EQ(r.stats.rays_shadow, 16u * 16u);  // one per floor pixel
+  EXPECT_EQ(r.stats.structure, "bvh");
+}
+
+TEST(Renderer, OccluderCastsAShadowOnlyWithShadowsOn) {
+  FloorScene f;
+  f.add_occluder();
+  f.materials[0].ambient = 0.1f;
+  // Pixels are 0.125 wide, pixel x centred at -2 + (x + 0.5) / 8. The camera looks straight down, so
+  // the occluder (|x| <= 0.25) covers pixels 14..17; its shadow, cast from the light at twice its
+  // height, covers |x| <= 0.5 on the floor. Pixel 12 (x = -0.44) is in the shadow beside the occluder.
+  const RenderResult shadowed = f.run();
+  const glm::vec3 ambient_only = 0.1f * 0.8f * f.settings.ambient;
+  EXPECT_NEAR(pixel(shadowed, 12, 16).x, ambient_only.x, 1e-6f);
+  EXPECT_GT(pixel(shadowed, 10, 16).x, 2.0f * ambient_only.x);  // x = -0.69: lit floor
+  f.settings.shadows = false;
+  const RenderResult unshadowed = f.run();
+  EXPECT_GT(pixel(unshadowed, 12, 16).x, 2.0f * ambient_only.x);
+  EXPECT_EQ(unshadowed.stats.rays_shadow, 0u);
+}
+
+TEST(Renderer, MirrorFloorReflectsTheBackground) {
+  FloorScene f;
+  f.materials[0].reflectivity = 1.0f;
+  const RenderResult r = f.run();
+  // A perfect mirror seen head-on shows what is above it: the background (nothing else is there).
+  EXPECT_NEAR(glm::distance(pixel(r, 16, 16), f.settings.background), 0.0f, 1e-6f);
+  EXPECT_EQ(r.stats.rays_reflection, 16u * 16u);
+  f.settings.max_depth = 0;  // no bounce allowed: the mirror is black
+  EXPECT_EQ(pixel(f.run(), 16, 16), glm::vec3(0.0f));
+}
+
+TEST(Renderer, GlassSlabTransmitsMostLightAtNormalIncidence) {
+  FloorScene f;
+  f.materials[0].transmission = 1.0f;
+  f.materials[0].ior = 1.5f;
+  const RenderResult r = f.run();
+  // Head-on through one interface: 4% reflected (background from above), 96% refracted (background below).
+  EXPECT_NEAR(glm::distance(pixel(r, 16, 16), f.settings.background), 0.0f, 1e-5f);
+  EXPECT_EQ(r.stats.rays_refraction, 16u * 16u);
+  EXPECT_EQ(r.stats.rays_reflection, 16u * 16u);
+}
+
+TEST(Renderer, SpotLightLightsOnlyInsideItsCone) {
+  FloorScene f;
+  f.lights[0].type = LightType::Spot;
+  f.lights[0].spot_size = glm::radians(20.0f);  // radius on the floor: 3 tan(10 deg) = 0.53
+  f.lights[0].spot_blend = 0.0f;
+  const RenderResult r = f.run();
+  EXPECT_GT(pixel(r, 16, 16).x, 0.0f);
+  EXPECT_EQ(pixel(r, 9, 16).x, 0.0f);  // x = -0.81
+}
+
+TEST(Renderer, SuperSamplingCountsNxNPrimaryRaysAndCancelStopsWork) {
+  FloorScene f;
+  f.settings.super_sampling = 3;
+  EXPECT_EQ(f.run().stats.rays_primary, 9u * 32u * 32u);
+  RenderProgress progress;
+  progress.cancel();
+  f.scene.commit();
+  const RenderResult r = render(f.scene, f.camera, f.lights, f.materials, f.settings, &progress);
+  EXPECT_TRUE(r.cancelled);
+  EXPECT_EQ(r.stats.rays_primary, 0u);
+}
+
+TEST(Renderer, MaterialIndexOutOfRangeThrows) {
+  FloorScene f;
+  f.materials.clear();
+  EXPECT_THROW(f.run(), std::invalid_argument);
+  FloorScene g;
+  g.settings.super_sampling = 5;
+  EXPECT_THROW(g.run(), std::invalid_argument);
+}
