@@ -171,7 +171,9 @@ def _story_key(scene, targets, depsgraph):
     return key, (origins, directions, why_not), fan, entries
 
 
-def _evaluate(scene, depsgraph=None):
+def probe_result(scene, depsgraph=None):
+    """The ProbeResult of the scene's probe (and fan), traced again only if anything it depends on
+    changed: the rays, the objects' structures or their transforms."""
     settings = scene.raylab
     targets = _targets(scene)
     key, (origins, directions, why_not), fan, entries = _story_key(scene, targets, depsgraph)
@@ -289,20 +291,20 @@ _results = {}  # scene name -> ProbeResult
 
 
 def evaluate_probe(context_or_scene):
-    """Traces the probe ray of the scene now; returns dict(status, triangles_tested, triangle_total,
+    """Evaluates the scene's probe ray (traced again if anything changed since); returns dict(status, triangles_tested, triangle_total,
     boxes_tested, nodes_visited, hit_point). status is one of STATUSES, or "" when there is no ray
     (no ray object / camera) or no mesh; hit_point is the world (x, y, z) of the nearest hit or None."""
     scene = _scene_of(context_or_scene)
-    return dict(_evaluate(scene).public)
+    return dict(probe_result(scene).public)
 
 
 def current_result(scene):
     """The last evaluation's public dict, evaluated again first if anything it depends on changed."""
-    return _evaluate(scene).public
+    return probe_result(scene).public
 
 
 def status_text(scene):
-    return _evaluate(scene).text
+    return probe_result(scene).text
 
 
 # --- drawing (GUI only) ----------------------------------------------------------------------------
@@ -313,7 +315,7 @@ def _draw_view():
     settings = scene.raylab
     if not settings.probe_enabled:
         return
-    result = _evaluate(scene, context.evaluated_depsgraph_get())
+    result = probe_result(scene, context.evaluated_depsgraph_get())
     xray = settings.xray
     if result.fan is not None:
         origins, ends, statuses = result.fan
@@ -362,7 +364,7 @@ def _draw_text():
     scene = context.scene
     if not scene.raylab.probe_enabled:
         return
-    result = _evaluate(scene, context.evaluated_depsgraph_get())
+    result = probe_result(scene, context.evaluated_depsgraph_get())
     scale = context.preferences.system.ui_scale
     size = round(13 * scale)
     left = 12 * scale + sum(r.width for r in context.area.regions if r.type == 'TOOLS' and r.alignment == 'LEFT')

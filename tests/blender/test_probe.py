@@ -1,0 +1,192 @@
+"""The ray probe tells the story the core tells: the four cases of VRT's octree level 2 on a torus,
+the same status and counts as raylab's own story on the same ray, live as the ray object moves.
+
+Run inside Blender: blender -b --factory-startup --python-expr "import pytest; pytest.main(['tests/blender'])"
+"""
+import math
+import os
+import sys
+
+import bpy
+import numpy as np
+import pytest
+from bpy_extras.object_utils import world_to_camera_view
+from mathutils import Matrix, Vector
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
+import raylab  # noqa: E402
+from raylab.blender import overlay, probe, structure_cache  # noqa: E402
+
+# Rays in the torus's own space (major radius 1, minor 0.25, in the XY plane; root cube ±1.25).
+# None runs along an octant plane (multiples of 1.25 / 8), where a round-off decides which side.
+CASES = {
+    "missed_root": ((0.1, -5.0, 3.0), (0.0, 1.0, 0.0)),         # passes above the root cube
+    "missed_nodes": ((0.1, -5.0, 1.0), (0.0, 1.0, 0.0)),        # inside the cube, high above the tube: no leaf
+    "missed_triangles": ((1.24, 0.16, 5.0), (0.0, 0.0, -1.0)),  # through an outer leaf, just outside the tube
+    "hit_object": ((1.0, -5.0, 0.05), (0.0, 1.0, 0.0)),         # straight through the tube
+}
+
+
+def structure_available(name):
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
+    try:
+        raylab.build(V, np.array([[0, 1, 2]], dtype=np.uint32), structure=name)
+        return True
+    except (ValueError, RuntimeError):
+        return False
+
+
+needs_octree = pytest.mark.skipif(not structure_available("octree"), reason="the core has no octree yet")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def addon_registered():
+    if not hasattr(bpy.types.Scene, "raylab"):
+        raylab.register()
+
+
+@pytest.fixture
+def torus_scene():
+    """A moved, turned and scaled torus, the octree of VRT's octree level 2, and the ray object."""
+    scene = bpy.context.scene
+    for obj in list(scene.objects):
+        bpy.data.objects.remove(obj)
+    structure_cache.clear()
+    bpy.ops.mesh.primitive_torus_add(major_radius=1.0, minor_radius=0.25)
+    torus = bpy.context.object
+    torus.matrix_world = (Matrix.Translation((0.5, -0.3, 0.8)) @ Matrix.Rotation(0.7, 4, 'Z')
+                          @ Matrix.Rotation(0.3, 4, 'X') @ Matrix.Diagonal((1.5, 1.5, 1.5, 1.0)))
+    settings = scene.raylab
+    settings.structure, settings.max_depth, settings.leaf_size = "octree", 3, 8
+    settings.objects, settings.probe_source, settings.fan_enabled = 'ALL', 'OBJECT', False
+    settings.probe_object = None
+    ray = overlay.ensure_probe_object(scene)
+    bpy.context.view_layer.update()
+    return scene, torus, ray
+
+
+def aim(ray_object, torus, origin, direction):
+    """Places the ray object so its ray is the torus-space ray (origin, direction)."""
+    m = torus.matrix_world
+    world_direction = (m.to_3x3() @ Vector(direction)).normalized()
+    rotation = world_direction.to_track_quat('-Z', 'Y').to_matrix().to_4x4()
+    ray_object.matrix_world = Matrix.Translation(m @ Vector(origin)) @ rotation
+    bpy.context.view_layer.update()
+
+
+def core_story(torus, origin, direction, settings):
+    """raylab's own story of the torus-space ray, on a structure built here from the mesh."""
+    vertices, triangles = structure_cache.read_mesh(torus, bpy.context.evaluated_depsgraph_get())
+    s = raylab.build(vertices, triangles, structure=settings.structure, max_depth=settings.max_depth,
+                     leaf_size=settings.leaf_size)
+    return s, s.story(np.array(origin, dtype=np.float32), np.array(direction, dtype=np.float32))
+
+
+@needs_octree
+@pytest.mark.parametrize("case", list(CASES))
+def test_probe_tells_the_cores_story(torus_scene, case):
+    scene, torus, ray = torus_scene
+    origin, direction = CASES[case]
+    aim(ray, torus, origin, direction)
+    result = probe.evaluate_probe(scene)
+    s, story = core_story(torus, origin, direction, scene.raylab)
+    assert story.status == case
+    assert result["status"] == case
+    assert result["triangles_tested"] == story.stats["triangle_tests"]
+    assert result["boxes_tested"] == story.stats["box_tests"]
+    assert result["nodes_visited"] == story.stats["nodes_visited"]
+    assert result["triangle_total"] == s.triangle_count == len(torus.data.polygons) * 2
+    # What the levels read is the same evaluation.
+    settings = scene.raylab
+    assert (settings.probe_status, settings.probe_triangles_tested, settings.probe_boxes_tested,
+            settings.probe_nodes_visited) == (case, result["triangles_tested"], result["boxes_tested"],
+                                              result["nodes_visited"])
+    if case == "hit_object":
+        expected = torus.matrix_world @ Vector(story.hit["point"])
+        assert (Vector(result["hit_point"]) - expected).length < 1e-4
+        # Blender agrees on where the ray meets the torus.
+        found, location, *_ = scene.ray_cast(bpy.context.evaluated_depsgraph_get(),
+                                             ray.matrix_world.translation,
+                                             ray.matrix_world.to_3x3() @ Vector((0, 0, -1)))
+        assert found and (location - Vector(result["hit_point"])).length < 1e-3
+    else:
+        assert result["hit_point"] is None
+    text = probe.status_text(scene)
+    assert text[0] == probe.status_message(case, "octree")
+    assert f"triangles tested {result['triangles_tested']} / {result['triangle_total']}" in text[1]
+
+
+@needs_octree
+def test_moving_the_ray_object_changes_the_status(torus_scene):
+    scene, torus, ray = torus_scene
+    aim(ray, torus, *CASES["hit_object"])
+    assert scene.raylab.probe_status == "hit_object"
+    ray.location.z += 10.0  # far above the torus, still aiming along the same direction
+    bpy.context.view_layer.update()
+    assert scene.raylab.probe_status == "missed_root"
+    assert scene.raylab.probe_triangles_tested == 0
+    aim(ray, torus, *CASES["missed_nodes"])
+    assert scene.raylab.probe_status == "missed_nodes"
+
+
+def test_status_fields_are_read_only(torus_scene):
+    scene = torus_scene[0]
+    with pytest.raises((AttributeError, TypeError)):
+        scene.raylab.probe_status = "hit_object"
+
+
+def test_no_ray_source_gives_no_status(torus_scene):
+    scene = torus_scene[0]
+    scene.raylab.probe_object = None
+    assert probe.evaluate_probe(scene)["status"] == ""
+    assert "No ray object" in probe.status_text(scene)[0]
+
+
+@needs_octree
+def test_a_large_fan_classifies_as_the_story_does(torus_scene):
+    """Past FAN_STORY_LIMIT rays the fan uses one intersect call and counted rays; every ray must
+    still get the status its own story gives."""
+    scene, torus, ray = torus_scene
+    aim(ray, torus, (0.9, -4.0, 0.9), (0.0, 1.0, -0.2))
+    settings = scene.raylab
+    settings.fan_enabled, settings.fan_size = True, 12
+    fan = probe.probe_result(scene).fan
+    assert len(fan[2]) == 144 > probe.FAN_STORY_LIMIT
+    origins, directions, _ = probe.probe_rays(scene, fan=True)
+    inverse = np.linalg.inv(np.array(torus.matrix_world))
+    local_origins = origins @ inverse[:3, :3].T + inverse[:3, 3]
+    local_directions = directions @ inverse[:3, :3].T
+    s, _ = core_story(torus, CASES["hit_object"][0], CASES["hit_object"][1], settings)
+    expected = [s.story(o, d).status for o, d in zip(local_origins, local_directions)]
+    assert list(fan[2]) == expected
+    assert len(set(expected)) >= 3  # the fan shows several cases, not one
+
+
+def test_camera_pixel_ray(torus_scene):
+    """Camera source: the ray through pixel (x, y) (x from the left, y from the top) projects back
+    onto that pixel's centre."""
+    scene = torus_scene[0]
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    camera.matrix_world = Matrix.Translation((0.3, -7.0, 2.0)) @ Matrix.Rotation(math.radians(75), 4, 'X')
+    camera.data.shift_x = 0.1
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 320, 200, 50
+    bpy.context.view_layer.update()
+    width, height = probe.render_size(scene)
+    assert (width, height) == (160, 100)
+    pixels = [(0, 0), (159, 99), (20, 70)]
+    origins, directions = probe.camera_rays(scene, pixels)
+    for (x, y), o, d in zip(pixels, origins, directions):
+        ndc = world_to_camera_view(scene, camera, Vector(o + 3.0 * d))
+        assert ndc.x * width == pytest.approx(x + 0.5, abs=1e-3)
+        assert (1.0 - ndc.y) * height == pytest.approx(y + 0.5, abs=1e-3)
+    settings = scene.raylab
+    settings.probe_source = 'CAMERA'
+    settings.probe_pixel_x, settings.probe_pixel_y = 20, 70
+    result = probe.evaluate_probe(scene)
+    found, location, *_ = scene.ray_cast(bpy.context.evaluated_depsgraph_get(), Vector(origins[2]),
+                                         Vector(directions[2]))
+    assert (result["status"] == "hit_object") == found
+    if found:
+        assert (Vector(result["hit_point"]) - location).length < 1e-3
