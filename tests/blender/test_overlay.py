@@ -1,0 +1,168 @@
+"""The structure overlay: the world AABB follows the object as VRT's does, octree and BVH boxes are
+carried by the transform without a rebuild, the filters pick the right boxes, spin turns the object.
+
+Run inside Blender: blender -b --factory-startup --python-expr "import pytest; pytest.main(['tests/blender'])"
+"""
+import os
+import sys
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Matrix
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
+import raylab  # noqa: E402
+from raylab.blender import overlay, structure_cache  # noqa: E402
+
+
+def structure_available(name):
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
+    try:
+        raylab.build(V, np.array([[0, 1, 2]], dtype=np.uint32), structure=name)
+        return True
+    except (ValueError, RuntimeError):
+        return False
+
+
+@pytest.fixture(scope="module", autouse=True)
+def addon_registered():
+    if not hasattr(bpy.types.Scene, "raylab"):
+        raylab.register()
+
+
+@pytest.fixture
+def monkey_scene():
+    scene = bpy.context.scene
+    for obj in list(scene.objects):
+        bpy.data.objects.remove(obj)
+    structure_cache.clear()
+    bpy.ops.mesh.primitive_monkey_add()
+    monkey = bpy.context.object
+    settings = scene.raylab
+    settings.structure, settings.max_depth, settings.leaf_size = "aabb", 4, 8
+    settings.objects, settings.depth_min, settings.depth_max = 'ALL', 0, 64
+    settings.leaves_only = settings.color_by_depth = settings.spin = False
+    settings.fade = True
+    bpy.context.view_layer.update()
+    return scene, monkey
+
+
+def world_vertex_bounds(obj):
+    m = np.array(obj.matrix_world)
+    v = np.array([tuple(v.co) for v in obj.data.vertices]) @ m[:3, :3].T + m[:3, 3]
+    return v.min(axis=0), v.max(axis=0)
+
+
+def drawn_world_box(obj, scene):
+    geometry = overlay.line_geometry(obj, scene)
+    model = structure_cache.structure_for(obj, scene.raylab).model_matrix(obj)
+    corners = structure_cache.transform_points(model, geometry.positions.astype(float))
+    return corners.min(axis=0), corners.max(axis=0)
+
+
+def test_world_aabb_follows_a_rotated_object(monkey_scene):
+    scene, monkey = monkey_scene
+    for rotation in (0.0, 0.5, 1.3):
+        monkey.matrix_world = (Matrix.Translation((1.0, -2.0, 0.5)) @ Matrix.Rotation(rotation, 4, 'Z')
+                               @ Matrix.Rotation(0.4, 4, 'X') @ Matrix.Diagonal((2.0, 1.0, 0.5, 1.0)))
+        bpy.context.view_layer.update()
+        lo, hi = drawn_world_box(monkey, scene)
+        expected_lo, expected_hi = world_vertex_bounds(monkey)
+        np.testing.assert_allclose(lo, expected_lo, atol=1e-4)
+        np.testing.assert_allclose(hi, expected_hi, atol=1e-4)
+
+
+@pytest.mark.parametrize("structure", ["octree", "bvh"])
+def test_moving_the_object_rebuilds_nothing(monkey_scene, structure):
+    if not structure_available(structure):
+        pytest.skip(f"the core has no {structure} yet")
+    scene, monkey = monkey_scene
+    scene.raylab.structure = structure
+    first = overlay.line_geometry(monkey, scene)
+    builds = dict(structure_cache.stats), dict(overlay.stats)
+    lo_before, hi_before = drawn_world_box(monkey, scene)
+
+    monkey.location = (3.0, 1.0, -1.0)
+    monkey.rotation_euler = (0.3, 0.2, 1.1)
+    bpy.context.view_layer.update()
+    assert overlay.line_geometry(monkey, scene) is first
+    assert (dict(structure_cache.stats), dict(overlay.stats)) == builds
+    lo_after, _ = drawn_world_box(monkey, scene)
+    assert not np.allclose(lo_before, lo_after)  # the same batch, drawn where the object now is
+
+    scene.raylab.leaves_only = True  # a filter: a new batch from the same structure
+    assert overlay.line_geometry(monkey, scene) is not first
+    assert structure_cache.stats["structure_builds"] == builds[0]["structure_builds"]
+    assert overlay.stats["batch_builds"] == builds[1]["batch_builds"] + 1
+
+    monkey.data.vertices[0].co.z += 0.5  # a geometry change: the structure is rebuilt
+    monkey.data.update()
+    bpy.context.view_layer.update()
+    overlay.line_geometry(monkey, scene)
+    assert structure_cache.stats["structure_builds"] == builds[0]["structure_builds"] + 1
+
+
+def test_filters_pick_depths_and_leaves(monkey_scene):
+    if not structure_available("octree"):
+        pytest.skip("the core has no octree yet")
+    scene, monkey = monkey_scene
+    settings = scene.raylab
+    settings.structure, settings.max_depth = "octree", 4
+    boxes = structure_cache.structure_for(monkey, settings).boxes()
+    assert boxes["depth"].max() == 4
+
+    settings.depth_min, settings.depth_max = 2, 3
+    assert overlay.line_geometry(monkey, scene).box_count == np.sum((boxes["depth"] >= 2) & (boxes["depth"] <= 3))
+    settings.depth_max = 1  # pulls the lower end down with it
+    assert settings.depth_min == 1
+    settings.depth_min, settings.depth_max = 0, 10
+    settings.leaves_only = True
+    geometry = overlay.line_geometry(monkey, scene)
+    assert geometry.box_count == boxes["leaf"].sum() < len(boxes["leaf"])
+    assert len(geometry.indices) == 12 * geometry.box_count and geometry.indices.dtype == np.uint32
+
+    settings.leaves_only = False
+    settings.color_by_depth = True
+    colors = overlay.line_geometry(monkey, scene).colors[::8]
+    np.testing.assert_allclose(colors[:, :3], overlay.DEPTH_PALETTE[boxes["depth"] % len(overlay.DEPTH_PALETTE)])
+    alpha_by_depth = [colors[boxes["depth"] == d, 3].max() for d in range(5)]
+    assert all(a > b for a, b in zip(alpha_by_depth, alpha_by_depth[1:]))  # fade: deeper is fainter
+    settings.fade = False
+    assert np.all(overlay.line_geometry(monkey, scene).colors[:, 3] == 1.0)
+
+
+def test_selected_objects_only(monkey_scene):
+    scene, monkey = monkey_scene
+    bpy.ops.mesh.primitive_cube_add(location=(4.0, 0.0, 0.0))
+    cube = bpy.context.object
+    assert set(structure_cache.target_objects(scene)) == {monkey, cube}
+    scene.raylab.objects = 'SELECTED'
+    monkey.select_set(False)
+    cube.select_set(True)
+    assert structure_cache.target_objects(scene) == [cube]
+
+
+def test_spin_turns_the_object_on_frame_change(monkey_scene):
+    scene, monkey = monkey_scene
+    scene.frame_set(1)
+    start = monkey.rotation_euler.z
+    scene.frame_set(2)
+    assert monkey.rotation_euler.z == start
+    scene.raylab.spin = True
+    scene.frame_set(3)
+    scene.raylab.spin = False
+    assert monkey.rotation_euler.z == pytest.approx(start + overlay.SPIN_STEP)
+    bpy.context.view_layer.update()
+    lo, hi = drawn_world_box(monkey, scene)  # and the world AABB turned with it
+    np.testing.assert_allclose((lo, hi), world_vertex_bounds(monkey), atol=1e-4)
+
+
+def test_ensure_probe_object_creates_one_arrow(monkey_scene):
+    scene = monkey_scene[0]
+    scene.raylab.probe_object = None
+    ray = overlay.ensure_probe_object(scene)
+    assert ray.name == overlay.PROBE_OBJECT_NAME and ray.empty_display_type == 'SINGLE_ARROW'
+    assert overlay.ensure_probe_object(scene) is ray
+    assert scene.raylab.probe_object is ray
+    assert sum(o.type == 'EMPTY' for o in scene.objects) == 1
