@@ -1,0 +1,102 @@
+"""`./raylab bench --quick` end to end: the benchmark runs, and what it writes is complete and
+consistent. No timing is asserted: only that every measurement is there and the hits agree."""
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+import raylab
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+BUILD = pathlib.Path(os.environ.get("RAYLAB_BUILD_DIR", ROOT / "build"))
+KINDS = ("same", "shared_edge_vertex", "coincident_faces", "edge_ray", "grazing", "unexplained")
+
+pytestmark = pytest.mark.skipif(not (BUILD / "raylab_bench").exists(),
+                                reason="raylab_bench is built only when Embree (libembree-dev) is found")
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    subprocess.run([sys.executable, str(ROOT / "tools" / "bench.py"), "--quick", "--out", str(out),
+                    "--build-dir", str(BUILD)], check=True, timeout=300, stdout=subprocess.DEVNULL)
+    return out, json.loads((out / "results.json").read_text())
+
+
+def test_outputs_exist(bench):
+    out, results = bench
+    assert set(results) >= {"meshes", "blender", "thesis", "leaks", "self_hits", "charts", "machine"}
+    assert (out / "results.md").read_text().startswith("# raylab benchmark")
+    assert {"bench_throughput.png", "bench_embree_ratio.png", "bench_thesis.png", "bench_leaks.png"} <= set(results["charts"])
+    for chart in results["charts"]:
+        data = (out / chart).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000, chart
+
+
+def test_every_structure_and_embree_measured(bench):
+    _, results = bench
+    for name, mesh in results["meshes"].items():
+        tracers = {t["name"]: t for t in mesh["tracers"]}
+        assert set(raylab.STRUCTURES) | {"embree_medium"} <= set(tracers), name
+        for tracer in tracers.values():
+            assert tracer["error"] is None, (name, tracer["name"], tracer["error"])
+            runs = {(r["rays"], r["query"], r["threads"]) for r in tracer["tracing"]["runs"]}
+            assert runs == {(s, q, n) for s in ("camera", "random") for q in ("closest", "any") for n in (1, 2)}
+            assert all(r["rays_per_second"] > 0 and r["ray_count"] > 0 for r in tracer["tracing"]["runs"])
+        assert set(tracers["bvh"]["ratios_to_embree_medium"]) >= {"camera_closest_2t_rays_per_second",
+                                                                  "random_closest_2t_rays_per_second",
+                                                                  "build_2t_seconds", "memory_bytes"}
+
+
+def test_counts_follow_the_structures(bench):
+    _, results = bench
+    for mesh in results["meshes"].values():
+        per_ray = {t["name"]: t["tracing"]["per_ray_set"]["camera"]["counts"]["closest"]["triangle_tests_per_ray"]
+                   for t in mesh["tracers"] if t["kind"] == "raylab"}
+        assert per_ray["none"] == mesh["triangles"]  # brute force tests every triangle
+        assert per_ray["bvh"] < per_ray["octree"] < per_ray["aabb"] <= per_ray["none"]
+
+
+def test_every_disagreement_with_embree_is_explained(bench):
+    _, results = bench
+    for name, mesh in results["meshes"].items():
+        for tracer in (t for t in mesh["tracers"] if t["kind"] == "raylab"):
+            for ray_set, per in tracer["tracing"]["per_ray_set"].items():
+                for query, counts in per["agreement_with_embree"].items():
+                    assert sum(counts[k] for k in KINDS) == counts["rays"] > 0
+                    assert counts["unexplained"] == 0, (name, tracer["name"], ray_set, query, counts)
+        for ray_set, b in results["blender"]["meshes"][name]["ray_sets"].items():
+            counts = b["agreement_with_embree"]
+            assert sum(counts[k] for k in KINDS) == counts["rays"] == b["ray_count"]
+            assert counts["unexplained"] == 0, (name, "blender", ray_set, counts)
+
+
+def test_thesis_experiment_covers_every_structure(bench):
+    _, results = bench
+    thesis = results["thesis"]
+    rows = {(r["structure"], r["super_sampling"]): r for r in thesis["rows"]}
+    levels = sorted({ss for _, ss in rows})
+    assert {s for s, _ in rows} == set(raylab.STRUCTURES)
+    for ss in levels:
+        tests = [rows[(s, ss)]["triangle_tests"] for s in ("none", "aabb", "octree", "bvh")]
+        assert tests == sorted(tests, reverse=True) and tests[-1] < tests[0]
+    if thesis["mode"] == "render":
+        # The point of the speed-against-accuracy chart: every structure renders the same image.
+        assert all(e["max_difference_to_other_structures"] < 1e-5 for e in thesis["image_error"])
+
+
+def test_watertight_rays_never_escape(bench):
+    _, results = bench
+    watertight = [r for r in results["leaks"] if r["triangle_test"] == "watertight"]
+    assert watertight and all(r["escaped"] == 0 for r in watertight)
+
+
+def test_robust_offset_has_no_false_self_hits(bench):
+    _, results = bench
+    if "rows" not in results["self_hits"]:
+        pytest.skip(results["self_hits"]["skipped"])
+    robust = [r for r in results["self_hits"]["rows"] if r["method"] == "robust"]
+    assert robust and all(r["lit_pixels"] > 0 and r["false_self_hits"] == 0 for r in robust)
