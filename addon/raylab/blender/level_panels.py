@@ -1,0 +1,193 @@
+"""The Levels panel in the 3D viewport's sidebar tab "raylab": the list of levels, the open level's
+title, goal, text with its diagrams, self-ticking tasks and the mesh swap with the mesh's credit."""
+import os
+import textwrap
+
+import bpy
+import bpy.utils.previews
+
+from . import levels
+
+_previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
+CHARACTER_WIDTH = 7.0  # pixels of an average sidebar character at UI scale 1, for wrapping
+
+
+def diagram_icon(path):
+    global _previews
+    if _previews is None:
+        _previews = bpy.utils.previews.new()
+    if path not in _previews:
+        _previews.load(path, path, 'IMAGE')
+    return _previews[path].icon_id
+
+
+def wrapped(context, text, indent=0):
+    width = context.region.width / (CHARACTER_WIDTH * context.preferences.view.ui_scale)
+    return textwrap.wrap(text, max(16, int(width) - indent)) or [""]
+
+
+def _label_lines(layout, lines, first_icon='NONE'):
+    column = layout.column(align=True)
+    column.scale_y = 0.8
+    for i, line in enumerate(lines):
+        column.label(text=line, icon=first_icon if i == 0 else 'BLANK1' if first_icon != 'NONE' else 'NONE')
+
+
+def current_level(context):
+    st = levels.state(context.scene)
+    if st is None:
+        return None
+    try:
+        return levels.find_level(st["id"])
+    except levels.LevelError:
+        return None
+
+
+class _LevelPanel:
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "raylab"
+
+
+class RAYLAB_PT_levels(_LevelPanel, bpy.types.Panel):
+    bl_label = "Levels"
+    bl_order = 0
+
+    def draw(self, context):
+        layout = self.layout
+        try:
+            all_levels, errors = levels.available_levels()
+        except levels.LevelError as error:
+            layout.label(text=str(error), icon='ERROR')
+            return
+        level = current_level(context)
+        column = layout.column(align=True)
+        for item in all_levels:
+            op = column.operator(levels.RAYLAB_OT_level_open.bl_idname, text=item.title,
+                                 depress=level is not None and item.id == level.id,
+                                 icon='CHECKMARK' if level is not None and item.id == level.id else 'PLAY')
+            op.level_id = item.id
+        for error in errors:
+            _label_lines(layout, wrapped(context, str(error), 4), 'ERROR')
+        row = layout.row(align=True)
+        row.operator(levels.RAYLAB_OT_level_step.bl_idname, text="Previous", icon='TRIA_LEFT').delta = -1
+        row.operator(levels.RAYLAB_OT_level_step.bl_idname, text="Next", icon='TRIA_RIGHT').delta = 1
+        if level is not None:
+            box = layout.box()
+            box.label(text=level.title, icon='INFO')
+            _label_lines(box, wrapped(context, "Goal: " + level.goal, 4))
+
+
+class _OpenLevelPanel(_LevelPanel):
+    bl_parent_id = "RAYLAB_PT_levels"
+
+    @classmethod
+    def poll(cls, context):
+        return current_level(context) is not None
+
+
+class RAYLAB_PT_level_text(_OpenLevelPanel, bpy.types.Panel):
+    bl_label = "Tutorial"
+
+    def draw(self, context):
+        layout = self.layout
+        ui_scale = context.preferences.view.ui_scale
+        for block in current_level(context).blocks:
+            kind = block[0]
+            if kind == "heading":
+                layout.separator()
+                layout.label(text=block[1], icon='BOOKMARKS')
+            elif kind == "paragraph":
+                _label_lines(layout, wrapped(context, block[1]))
+            elif kind == "bullet":
+                _label_lines(layout, wrapped(context, block[1], 4), 'DOT')
+            else:
+                _, path, caption = block
+                # template_icon draws a square: fill the sidebar's width with it.
+                layout.template_icon(icon_value=diagram_icon(path),
+                                     scale=max(6.0, context.region.width / (20.0 * ui_scale) - 1.0))
+                row = layout.row()
+                row.alignment = 'CENTER'
+                row.operator(RAYLAB_OT_level_show_diagram.bl_idname, text=caption or "Open diagram",
+                             icon='IMAGE_DATA', emboss=False).path = path
+
+
+class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
+    bl_label = "Tasks"
+
+    def draw(self, context):
+        layout = self.layout
+        tasks = levels.task_list(context.scene)
+        first_open = next((i for i, (_, done) in enumerate(tasks) if not done), None)
+        for i, (text, done) in enumerate(tasks):
+            column = layout.column()
+            column.active = done or i == first_open  # later tasks wait their turn
+            _label_lines(column, wrapped(context, text, 4), 'CHECKBOX_HLT' if done else 'CHECKBOX_DEHLT')
+        if tasks and first_open is None:
+            layout.label(text="All done: on to the next level!", icon='FUND')
+        controls = current_level(context).controls
+        if controls:
+            layout.separator()
+            column = layout.column()
+            column.use_property_split = True
+            for control in controls:
+                if control.startswith("operator:"):
+                    column.operator(control.partition(":")[2])
+                else:
+                    group, _, prop = control.partition(".")
+                    column.prop(getattr(context.scene, group), prop)
+
+
+class RAYLAB_PT_level_mesh(_OpenLevelPanel, bpy.types.Panel):
+    bl_label = "Level mesh"
+
+    def draw(self, context):
+        layout = self.layout
+        obj = levels.level_mesh_object(context.scene)
+        if obj is None:
+            layout.label(text="The level's mesh was deleted: open the level again", icon='ERROR')
+            return
+        layout.label(text=f"{obj.get('raylab_mesh_source', '?')}: {len(obj.data.polygons):,} triangles",
+                     icon='MESH_DATA')
+        _label_lines(layout, wrapped(context, "Credit: " + obj.get("raylab_credit", ""), 4))
+        layout.operator_menu_enum(levels.RAYLAB_OT_level_swap_mesh.bl_idname, "source", text="Swap mesh",
+                                  icon='FILE_REFRESH')
+
+
+class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
+    """Show this diagram full size in a new window"""
+    bl_idname = "raylab.level_show_diagram"
+    bl_label = "Show Diagram"
+
+    path: bpy.props.StringProperty(subtype='FILE_PATH')
+
+    def execute(self, context):
+        if not os.path.isfile(self.path):
+            self.report({'ERROR'}, f"raylab: no diagram at {self.path}")
+            return {'CANCELLED'}
+        image = bpy.data.images.load(self.path, check_existing=True)
+        # render.view_show opens a new window with an image editor; show the diagram in it instead.
+        bpy.ops.render.view_show('INVOKE_DEFAULT')
+        area = next((a for w in context.window_manager.windows for a in w.screen.areas if a.type == 'IMAGE_EDITOR'),
+                    None)
+        if area is not None:
+            area.spaces.active.image = image
+        return {'FINISHED'}
+
+
+CLASSES = (RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_level_text, RAYLAB_PT_level_tasks,
+           RAYLAB_PT_level_mesh)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    global _previews
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)
+    if _previews is not None:
+        bpy.utils.previews.remove(_previews)
+        _previews = None
