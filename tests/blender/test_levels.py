@@ -1,0 +1,278 @@
+"""The tutorial levels as a student meets them: opening a level builds its scene and settings from its
+level.toml, tasks tick themselves when the student does them (through the same handler the add-on
+registers), next / previous walk the list, a mesh swap keeps the settings, and a broken level.toml
+gives a clear error, not a crash.
+
+Run inside Blender: blender -b --factory-startup --python-expr "import pytest; pytest.main(['tests/blender'])"
+"""
+import os
+import shutil
+import sys
+import tomllib
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Matrix, Vector
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+import raylab  # noqa: E402
+from raylab.blender import levels, overlay, probe  # noqa: E402
+
+LEVELS_DIR = os.path.join(ROOT, "levels")
+LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def addon_registered():
+    if not hasattr(bpy.types.Scene, "raylab"):
+        raylab.register()
+
+
+def toml_of(level_id):
+    with open(os.path.join(LEVELS_DIR, level_id, "level.toml"), "rb") as f:
+        return tomllib.load(f)
+
+
+def tick(scene):
+    """After the student changes something the depsgraph updates and the add-on's handler checks the
+    tasks: the ticks as the Tasks panel shows them then."""
+    bpy.context.view_layer.update()
+    return [done for _, done in levels.task_list(scene)]
+
+
+def timer_tick(scene):
+    """A render or a comparison stores its results without a depsgraph update: the add-on's timer
+    checks the tasks of the window's scene."""
+    assert bpy.context.window.scene == scene
+    levels._check_timer()
+    return [done for _, done in levels.task_list(scene)]
+
+
+def same(actual, expected):
+    if isinstance(expected, list):
+        return len(actual) == len(expected) and all(same(a, e) for a, e in zip(actual, expected))
+    if isinstance(expected, float):
+        return abs(actual - expected) < 1e-6
+    return actual == expected
+
+
+def test_the_required_levels_exist():
+    assert {"aabb_1", "aabb_2", "octree_1", "octree_2", "bvh_1", "bvh_2", "race", "where_methods_fail",
+            "sandbox"} <= set(LEVEL_IDS)
+    found, errors = levels.available_levels()
+    assert errors == []
+    assert [level.id for level in found][:2] == ["aabb_1", "aabb_2"]
+
+
+@pytest.mark.parametrize("level_id", LEVEL_IDS)
+def test_opening_a_level_builds_its_scene_and_settings(level_id):
+    data = toml_of(level_id)
+    scene = levels.open_level(bpy.context, level_id)
+    assert bpy.context.scene == scene
+    assert bpy.context.window.scene == scene
+    obj = levels.level_mesh_object(scene)
+    _, triangles = raylab.load_mesh(os.path.join(levels.MESH_DIR, data["mesh"]["file"]))
+    assert len(obj.data.polygons) == len(triangles)
+    assert obj["raylab_credit"].startswith(data["mesh"]["file"]) and "from" in obj["raylab_credit"]
+    assert scene.camera is not None and any(o.type == 'LIGHT' for o in scene.objects)
+    # The mesh fits the camera's frame size for the level's scale, centred on the origin.
+    corners = np.array([obj.matrix_world @ Vector(c) for c in obj.bound_box])
+    assert (corners.max(axis=0) - corners.min(axis=0)).max() == pytest.approx(
+        levels.MESH_SIZE * data.get("scene_scale", 1.0), rel=1e-4)
+    for group in levels.SETTING_GROUPS:
+        for key, value in data.get(group, {}).items():
+            actual = getattr(getattr(scene, group), key)
+            actual = list(actual) if isinstance(value, list) else actual
+            assert same(actual, value), f"{group}.{key} = {actual!r}, level.toml says {value!r}"
+    has_ray = overlay.PROBE_OBJECT_NAME in scene.objects
+    assert has_ray == data.get("raylab", {}).get("probe_enabled", False)
+    if has_ray:
+        assert scene.raylab.probe_object == scene.objects[overlay.PROBE_OBJECT_NAME]
+    tasks = levels.task_list(scene)
+    assert [text for text, _ in tasks] == [t["text"] for t in data.get("tasks", [])]
+    assert not any(tick(scene)), "no task may be done before the student acts"
+
+
+def test_the_level_1s_spin_and_the_level_2s_probe_the_object():
+    scene = levels.open_level(bpy.context, "aabb_1")
+    assert scene.raylab.spin and not scene.raylab.probe_enabled
+    scene = levels.open_level(bpy.context, "octree_1")
+    assert scene.raylab.spin
+    for level_id in ("aabb_2", "octree_2"):
+        scene = levels.open_level(bpy.context, level_id)
+        # VRT's level 2s start with the ray on the object (thesis, figures 11 and 18).
+        assert scene.raylab.probe_status == "hit_object"
+
+
+def test_octree_1_ticks_the_depth_task_and_keeps_the_order():
+    scene = levels.open_level(bpy.context, "octree_1")
+    scene.raylab.color_by_depth = True  # the second task, done too early: it waits for the first
+    assert tick(scene)[:2] == [False, False]
+    scene.raylab.max_depth = 4
+    assert tick(scene)[0] is False
+    scene.raylab.max_depth = 5
+    assert tick(scene)[:2] == [True, False]
+    assert timer_tick(scene)[:2] == [True, True], "the waiting task ticks on the next check"
+    scene.raylab.max_depth = 1  # a tick stays
+    assert tick(scene)[0] is True
+
+
+def aim(ray, origin, direction):
+    ray.matrix_world = Matrix.Translation(origin) @ Vector(direction).to_track_quat('-Z', 'Y').to_matrix().to_4x4()
+    bpy.context.view_layer.update()
+
+
+def test_aabb_2_ticks_when_the_ray_misses_the_box_then_grazes_it():
+    scene = levels.open_level(bpy.context, "aabb_2")
+    ray = scene.raylab.probe_object
+    obj = levels.level_mesh_object(scene)
+    corners = np.array([obj.matrix_world @ Vector(c) for c in obj.bound_box])
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    aim(ray, (0.0, -5.0, hi[2] + 1.0), (0.0, 1.0, 0.0))  # passes above the box
+    assert probe.evaluate_probe(scene)["status"] == "missed_root"
+    assert tick(scene)[:2] == [True, False]
+    # Along the box's edges the goat leaves empty corners: a ray there enters the box, hits no triangle.
+    inset = 0.02 * (hi - lo)
+    grazing = [(x, z) for x in (lo[0] + inset[0], hi[0] - inset[0]) for z in (lo[2] + inset[2], hi[2] - inset[2])]
+    for x, z in grazing:
+        aim(ray, (x, -5.0, z), (0.0, 1.0, 0.0))
+        if probe.evaluate_probe(scene)["status"] in ("missed_nodes", "missed_triangles"):
+            break
+    assert tick(scene)[:2] == [True, True]
+    aim(ray, (0.0, -5.0, 0.0), (0.0, 1.0, 0.0))
+    assert tick(scene)[:3] == [True, True, True]
+
+
+def test_where_methods_fail_ticks_a_render_then_a_new_render_with_the_robust_offset():
+    scene = levels.open_level(bpy.context, "where_methods_fail")
+    assert scene.render.engine == "RAYLAB", "a level renders with raylab"
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    assert timer_tick(scene) == [False, False]
+    bpy.ops.render.render()
+    assert "raylab_last_render" in scene
+    assert timer_tick(scene) == [True, False]
+    scene.raylab_render.robust_offset = True
+    assert timer_tick(scene) == [True, False], "the old render does not count for the new task"
+    bpy.ops.render.render()
+    assert timer_tick(scene) == [True, True]
+
+
+def test_race_ticks_when_the_comparison_has_all_four_structures():
+    scene = levels.open_level(bpy.context, "race")
+    assert timer_tick(scene)[0] is False
+    scene.render.resolution_x, scene.render.resolution_y = 48, 36
+    assert bpy.ops.raylab.compare_structures() == {'FINISHED'}
+    assert len(scene["raylab_comparison"]) == 4
+    assert timer_tick(scene)[0] is True
+
+
+def test_next_and_previous_walk_the_levels_and_replace_the_scene():
+    scene_count = len(bpy.data.scenes)
+    levels.open_level(bpy.context, "aabb_1")
+    assert bpy.ops.raylab.level_step(delta=1) == {'FINISHED'}
+    assert levels.state(bpy.context.scene)["id"] == "aabb_2"
+    assert bpy.ops.raylab.level_step(delta=-1) == {'FINISHED'}
+    assert levels.state(bpy.context.scene)["id"] == "aabb_1"
+    with pytest.raises(levels.LevelError, match="first level"):
+        levels.step_level(bpy.context, -1)
+    assert len(bpy.data.scenes) == max(scene_count, 2), "the previous level's scene is removed"
+    assert bpy.ops.raylab.level_open(level_id="sandbox") == {'FINISHED'}
+    assert levels.state(bpy.context.scene)["id"] == "sandbox"
+
+
+def test_mesh_swap_replaces_the_mesh_and_keeps_the_settings():
+    scene = levels.open_level(bpy.context, "aabb_1")
+    scene.raylab.spin = False
+    scene.raylab.max_depth = 3
+    obj = levels.level_mesh_object(scene)
+    obj.location = (0.5, 0.0, 0.0)
+    assert bpy.ops.raylab.level_swap_mesh(source="file:sphere.obj") == {'FINISHED'}
+    assert levels.level_mesh_object(scene) == obj
+    assert len(obj.data.polygons) == 1280
+    assert "CC BY 4.0" in obj["raylab_credit"]
+    assert tuple(obj.location) == (0.5, 0.0, 0.0)
+    assert scene.raylab.max_depth == 3 and scene.raylab.structure == "aabb" and not scene.raylab.spin
+
+    # One of the student's own mesh objects, from their own scene.
+    own = bpy.data.objects.new("My Pyramid", levels.mesh_from_arrays(
+        "pyramid", np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32),
+        np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], np.uint32)))
+    assert "object:My Pyramid" in levels.mesh_sources(scene)
+    levels.swap_mesh(scene, "object:My Pyramid")
+    assert len(obj.data.polygons) == 4
+    assert len(own.data.polygons) == 4 and own.data != obj.data, "the student's mesh is copied, not taken"
+    with pytest.raises(levels.LevelError, match="cannot swap in"):
+        levels.swap_mesh(scene, "object:No Such Object")
+    with pytest.raises(levels.LevelError, match="no shipped mesh"):
+        levels.swap_mesh(scene, "file:nothing.obj")
+
+
+def test_aabb_1_movement_tasks_follow_the_object():
+    scene = levels.open_level(bpy.context, "aabb_1")
+    obj = levels.level_mesh_object(scene)
+    scene.raylab.spin = False
+    assert tick(scene)[:2] == [True, False]
+    obj.rotation_euler.z += 1.5  # turning about Z is what spin does: no tilt
+    obj.location.x += 1.2
+    assert tick(scene)[:3] == [True, True, False]
+    obj.rotation_euler.x += 1.0
+    assert tick(scene)[:3] == [True, True, True]
+    levels.swap_mesh(scene, "file:bunny.obj")
+    assert tick(scene) == [True, True, True, True]
+
+
+BROKEN = {
+    "not toml": ("level.toml", lambda text: text.replace('title = "', 'title = "unclosed\n'), "not valid TOML"),
+    "no title": ("level.toml", lambda text: text.replace("title =", "titel ="), "'title' is missing"),
+    "code in a condition": ("level.toml", lambda text: text.replace(
+        'property = "raylab.spin"', 'property = "__import__(\'os\').system"'), "property must be"),
+    "unknown test": ("level.toml", lambda text: text.replace("equals = false", "matches = false", 1),
+                     "takes exactly one of"),
+    "missing diagram": ("text.md", lambda text: text + "\n![x](diagrams/none.png)\n", "does not exist"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BROKEN))
+def test_a_broken_level_gives_a_clear_error(case, tmp_path):
+    shutil.copytree(os.path.join(LEVELS_DIR, "aabb_1"), tmp_path / "aabb_1")
+    shutil.copytree(os.path.join(LEVELS_DIR, "sandbox"), tmp_path / "sandbox")
+    name, edit, message = BROKEN[case]
+    path = tmp_path / "aabb_1" / name
+    path.write_text(edit(path.read_text(encoding="utf-8")), encoding="utf-8")
+    found, errors = levels.available_levels(str(tmp_path))
+    assert [level.id for level in found] == ["sandbox"], "the other levels still load"
+    assert len(errors) == 1 and message in str(errors[0]) and "aabb_1" in str(errors[0])
+    scenes = len(bpy.data.scenes)
+    with pytest.raises(levels.LevelError, match=message.replace("(", r"\(")):
+        levels.open_level(bpy.context, "aabb_1", root=str(tmp_path))
+    assert len(bpy.data.scenes) == scenes
+
+
+def test_a_setting_that_does_not_exist_leaves_no_half_built_scene(tmp_path):
+    shutil.copytree(os.path.join(LEVELS_DIR, "aabb_1"), tmp_path / "aabb_1")
+    path = tmp_path / "aabb_1" / "level.toml"
+    path.write_text(path.read_text().replace("[raylab]\n", "[raylab]\nno_such_setting = 1\n"))
+    scenes = len(bpy.data.scenes)
+    with pytest.raises(levels.LevelError, match="no writable setting 'no_such_setting'"):
+        levels.open_level(bpy.context, "aabb_1", root=str(tmp_path))
+    path.write_text(path.read_text().replace("no_such_setting = 1\n", "").replace(
+        'structure = "aabb"', 'structure = "no such structure"', 1))
+    with pytest.raises(levels.LevelError, match="structure"):
+        levels.open_level(bpy.context, "aabb_1", root=str(tmp_path))
+    assert len(bpy.data.scenes) == scenes
+    with pytest.raises(RuntimeError, match="no level named 'no_such_level'"):  # the operator's report
+        bpy.ops.raylab.level_open(level_id="no_such_level")
+
+
+def test_every_diagram_the_text_shows_exists_and_is_drawn_by_the_script():
+    with open(os.path.join(LEVELS_DIR, "make_diagrams.py"), encoding="utf-8") as f:
+        script = f.read()
+    for level in levels.available_levels()[0]:
+        images = [block[1] for block in level.blocks if block[0] == "image"]
+        if level.id != "sandbox":
+            assert images, f"{level.id} shows no diagram"
+        for path in images:
+            assert os.path.getsize(path) > 10_000
+            assert f'"{os.path.basename(path)}"' in script
