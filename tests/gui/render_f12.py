@@ -91,6 +91,8 @@ def wait_for_render():
                                       width=region.width, height=region.height)
         report["last_render"] = bpy.context.scene["raylab_last_render"].to_dict()
         with bpy.context.temp_override(window=window, area=area, region=region):
+            # Under Xvfb the window's front buffer may be stale: draw and swap before reading it.
+            bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=2)
             bpy.ops.screen.screenshot(filepath=SCREENSHOT)
         finish()
     except Exception:

@@ -26,7 +26,7 @@ def f12_render():
                     "--python", os.path.join(HERE, "save_demo_blend.py"), "--", blend],
                    check=True, capture_output=True, timeout=120)
     run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
-                          blend, "--python", os.path.join(HERE, "render_f12.py"), "--", screenshot, report_path],
+                          blend, "--python-exit-code", "1", "--python", os.path.join(HERE, "render_f12.py"), "--", screenshot, report_path],
                          capture_output=True, text=True, timeout=300)
     assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:]
     with open(report_path) as file:

@@ -1,0 +1,98 @@
+"""Shared helpers of the GUI tests: start Blender in a real window under Xvfb with a script, and read
+what it drew from its window screenshots.
+
+Runs in the pytest process (/usr/bin/python3), never inside Blender.
+"""
+import json
+import os
+import subprocess
+
+import numpy as np
+from matplotlib.image import imread
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir, os.pardir))
+OUT = os.path.join(ROOT, "out", "gui")
+SCREEN = "-screen 0 1600x900x24"
+
+
+def start_blend(directory):
+    """A saved default scene: opening a file keeps the splash screen out of the screenshots."""
+    path = os.path.join(str(directory), "start.blend")
+    subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
+                    f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={path!r})"],
+                   check=True, capture_output=True, timeout=120)
+    return path
+
+
+def run_gui_blender(script, args, blend=None, timeout=600):
+    """Runs `script` inside Blender in a 1600x900 Xvfb window; the script quits Blender itself.
+    Returns the finished process (its output helps when a report file is missing)."""
+    command = ["xvfb-run", "-a", "-s", SCREEN, "blender", "--factory-startup"]
+    command += [blend] if blend else []
+    command += ["--python", script, "--", *args]
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+
+
+def read_report(path, process=None):
+    if not os.path.exists(path):
+        tail = "" if process is None else (process.stdout[-2000:] + process.stderr[-2000:])
+        raise AssertionError(f"Blender wrote no report {path}:\n{tail}")
+    with open(path) as f:
+        report = json.load(f)
+    assert "error" not in report, report["error"]
+    return report
+
+
+def load_rgb(path):
+    return imread(path)[:, :, :3].astype(np.float32)
+
+
+class Region:
+    """A region's rectangle inside a window screenshot (Blender counts y from the window's bottom)."""
+
+    def __init__(self, rect, window_height):
+        self.x, self.y, self.width, self.height = rect["x"], rect["y"], rect["width"], rect["height"]
+        self.window_height = window_height
+
+    def crop(self, image):
+        top = self.window_height - (self.y + self.height)
+        return image[top:top + self.height, self.x:self.x + self.width]
+
+    def row_col(self, x, y):
+        """(row, column) in a cropped image of the region-space point (x, y)."""
+        return self.height - 1 - int(round(y)), int(round(x))
+
+
+def changed(before, after, threshold=0.03):
+    """Pixels whose colour differs between two screenshots of the same view."""
+    return np.abs(after - before).max(axis=-1) > threshold
+
+
+def color_mask(image, color, tolerance=0.12):
+    return np.all(np.abs(image - np.asarray(color[:3], dtype=np.float32)) < tolerance, axis=-1)
+
+
+def dilate(mask, radius):
+    out = mask.copy()
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            shifted = np.zeros_like(mask)
+            ys = slice(max(dy, 0), mask.shape[0] + min(dy, 0))
+            xs = slice(max(dx, 0), mask.shape[1] + min(dx, 0))
+            yd = slice(max(-dy, 0), mask.shape[0] + min(-dy, 0))
+            xd = slice(max(-dx, 0), mask.shape[1] + min(-dx, 0))
+            shifted[ys, xs] = mask[yd, xd]
+            out |= shifted
+    return out
+
+
+def segments_mask(region, segments, shape):
+    """A mask of the 2D segments ((x0, y0), (x1, y1)) in region coordinates, drawn one pixel wide."""
+    mask = np.zeros(shape, dtype=bool)
+    for (x0, y0), (x1, y1) in segments:
+        n = int(max(abs(x1 - x0), abs(y1 - y0))) * 2 + 2
+        for t in np.linspace(0.0, 1.0, n):
+            row, col = region.row_col(x0 + (x1 - x0) * t, y0 + (y1 - y0) * t)
+            if 0 <= row < shape[0] and 0 <= col < shape[1]:
+                mask[row, col] = True
+    return mask

@@ -1,0 +1,91 @@
+"""Measures what dragging the depth slider costs on a 100k-triangle mesh, in a real Blender window
+(not a test: it prints figures, asserts nothing).
+
+    xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup START.blend \
+        --python tests/gui/viewport_measure.py -- MESH.obj [STRUCTURE]
+
+Per depth 0..8: the structure build, the wireframe arrays, the GPU batch upload, the first redraw
+(which builds both, as a slider drag does) and the redraw of the cached batch.
+"""
+import os
+import sys
+import time
+import traceback
+
+import bpy
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+import raylab  # noqa: E402
+from raylab.blender import overlay, structure_cache  # noqa: E402
+
+ARGS = sys.argv[sys.argv.index("--") + 1:]
+MESH = ARGS[0]
+STRUCTURE = ARGS[1] if len(ARGS) > 1 else "octree"
+
+
+def view3d():
+    window = bpy.context.window_manager.windows[0]
+    area = max((a for a in window.screen.areas if a.type == 'VIEW_3D'), key=lambda a: a.width * a.height)
+    return window, area, next(r for r in area.regions if r.type == 'WINDOW')
+
+
+def redraw_seconds(iterations):
+    window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        start = time.perf_counter()
+        bpy.ops.wm.redraw_timer(type='DRAW', iterations=iterations)
+    return (time.perf_counter() - start) / iterations
+
+
+def measure():
+    raylab.register()
+    scene = bpy.context.scene
+    for obj in list(scene.objects):
+        if obj.type == 'MESH':
+            bpy.data.objects.remove(obj)
+    bpy.ops.wm.obj_import(filepath=MESH)
+    obj = bpy.context.selected_objects[0]
+    settings = scene.raylab
+    settings.structure, settings.leaf_size, settings.fade = STRUCTURE, 8, True
+    window, area, region = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.view3d.view_selected()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    triangles = len(structure_cache.read_mesh(obj, depsgraph)[1])
+    print(f"\n{os.path.basename(MESH)}: {triangles} triangles, structure {STRUCTURE}, leaf size 8")
+    print("depth  boxes   build_ms  arrays_ms  upload_ms  first_redraw_ms  redraw_ms")
+    settings.show = False
+    empty = redraw_seconds(5)
+    settings.show = True
+    for depth in range(9):
+        settings.max_depth = depth
+        # What a slider step costs inside the draw callback: structure + arrays + upload + draw.
+        first = redraw_seconds(1)
+        redraw = redraw_seconds(5)
+        # The parts, measured apart on a fresh cache.
+        structure_cache.clear()
+        start = time.perf_counter()
+        entry = structure_cache.structure_for(obj, settings, depsgraph)
+        built = time.perf_counter()
+        overlay._geometry.clear()
+        geometry = overlay.line_geometry(obj, scene, depsgraph)
+        arrays = time.perf_counter()
+        with bpy.context.temp_override(window=window, area=area, region=region):
+            overlay.make_batch('LINES', geometry.positions, geometry.colors, geometry.indices)
+        uploaded = time.perf_counter()
+        print(f"{depth:5d} {geometry.box_count:6d} {1000 * entry.structure.build_seconds:9.1f}"
+              f" {1000 * (arrays - built):10.1f} {1000 * (uploaded - arrays):10.1f}"
+              f" {1000 * first:16.1f} {1000 * redraw:10.1f}   (structure_for {1000 * (built - start):.1f} ms)")
+    print(f"redraw without the boxes (show off): {1000 * empty:.1f} ms")
+
+
+def run():
+    try:
+        measure()
+    except Exception:
+        traceback.print_exc()
+    bpy.ops.wm.quit_blender()
+
+
+bpy.app.timers.register(run, first_interval=1.0)
