@@ -114,35 +114,29 @@ def line_geometry(obj, scene, depsgraph=None):
 
 # --- drawing (GUI only) ---------------------------------------------------------------------------
 
-def line_shader():
+THIN = 'SMOOTH_COLOR'            # 1-pixel lines and points: cheap even for 100k boxes
+THICK = 'POLYLINE_SMOOTH_COLOR'  # wide lines (a geometry shader): for the few lines that stand out
+
+
+def make_batch(primitive, positions, colors, indices=None, shader_name=THIN):
     import gpu
-    return gpu.shader.from_builtin('POLYLINE_SMOOTH_COLOR')
-
-
-def point_shader():
-    import gpu
-    return gpu.shader.from_builtin('SMOOTH_COLOR')
-
-
-def make_batch(primitive, positions, colors, indices=None):
     from gpu_extras.batch import batch_for_shader
-    shader = line_shader() if primitive == 'LINES' else point_shader()
-    return batch_for_shader(shader, primitive, {"pos": positions, "color": colors}, indices=indices)
+    return batch_for_shader(gpu.shader.from_builtin(shader_name), primitive, {"pos": positions, "color": colors},
+                            indices=indices)
 
 
-def draw_batch(batch, primitive, model_matrix, xray, width=1.0, point_size=1.0):
+def draw_batch(batch, model_matrix, xray, shader_name=THIN, width=1.0, point_size=1.0):
     """Draws a batch made by make_batch with `model_matrix` (4,4) carrying it to the world."""
     import gpu
-    shader = line_shader() if primitive == 'LINES' else point_shader()
+    shader = gpu.shader.from_builtin(shader_name)
     gpu.state.blend_set('ALPHA')
     gpu.state.depth_test_set('NONE' if xray else 'LESS_EQUAL')
     gpu.state.depth_mask_set(False)
-    if primitive == 'LINES':
+    gpu.state.point_size_set(point_size)
+    if shader_name == THICK:
         shader.bind()
         shader.uniform_float("viewportSize", gpu.state.viewport_get()[2:])
         shader.uniform_float("lineWidth", width)
-    else:
-        gpu.state.point_size_set(point_size)
     with gpu.matrix.push_pop():
         gpu.matrix.multiply_matrix(Matrix(np.asarray(model_matrix).tolist()))
         batch.draw(shader)
@@ -164,7 +158,7 @@ def _draw_boxes():
         if geometry.batch is None:
             geometry.batch = make_batch('LINES', geometry.positions, geometry.colors, geometry.indices)
         entry = structure_cache.structure_for(obj, settings, depsgraph)
-        draw_batch(geometry.batch, 'LINES', entry.model_matrix(obj), settings.xray)
+        draw_batch(geometry.batch, entry.model_matrix(obj), settings.xray)
 
 
 # --- the ray object, live updates, spin -----------------------------------------------------------

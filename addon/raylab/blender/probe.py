@@ -337,8 +337,9 @@ def _draw_view():
 
 def _draw_segments(starts, ends, colors, xray, width):
     positions = np.ascontiguousarray(np.stack([starts, ends], axis=1).reshape(-1, 3), dtype=np.float32)
-    batch = overlay.make_batch('LINES', positions, np.repeat(colors, 2, axis=0))
-    overlay.draw_batch(batch, 'LINES', np.identity(4), xray, width)
+    shader = overlay.THICK if width > 1.0 else overlay.THIN
+    batch = overlay.make_batch('LINES', positions, np.repeat(colors, 2, axis=0), shader_name=shader)
+    overlay.draw_batch(batch, np.identity(4), xray, shader, width)
 
 
 def _draw_boxes(lo, hi, color, model, xray, width):
@@ -346,7 +347,8 @@ def _draw_boxes(lo, hi, color, model, xray, width):
         return
     positions, indices = overlay.box_wireframe(lo, hi)
     colors = np.tile(np.asarray(color, dtype=np.float32), (len(positions), 1))
-    overlay.draw_batch(overlay.make_batch('LINES', positions, colors, indices), 'LINES', model, xray, width)
+    batch = overlay.make_batch('LINES', positions, colors, indices, overlay.THICK)
+    overlay.draw_batch(batch, model, xray, overlay.THICK, width)
 
 
 def _draw_points(points, color, xray, size):
@@ -354,8 +356,7 @@ def _draw_points(points, color, xray, size):
         return
     positions = np.ascontiguousarray(points, dtype=np.float32)
     colors = np.tile(np.asarray(color, dtype=np.float32), (len(points), 1))
-    overlay.draw_batch(overlay.make_batch('POINTS', positions, colors), 'POINTS', np.identity(4), xray,
-                       point_size=size)
+    overlay.draw_batch(overlay.make_batch('POINTS', positions, colors), np.identity(4), xray, point_size=size)
 
 
 def _draw_text():
