@@ -1,23 +1,32 @@
-// `bvh`: a binned SAH bounding volume hierarchy (bvh_build.h) with compact 32-byte nodes and ordered
-// traversal: the nearer child first, and a node is skipped once the closest hit lies before it.
+// `bvh`: a binned SAH hierarchy (bvh_build.h) collapsed into a 4-wide BVH whose nodes test their four
+// children at once with SSE and whose leaves hold triangles in packets of four for the SIMD
+// watertight test (bvh_simd.h). Traversal is ordered: the nearest child first, and a node is skipped
+// once the closest hit lies before it.
 #pragma once
 
 #include "raylab/box_intersection.h"
 #include "raylab/bvh_build.h"
+#include "raylab/bvh_simd.h"
 #include "raylab/structure.h"
 #include "raylab/triangle_loop.h"
+
+#include <algorithm>
+#include <bit>
 
 namespace raylab {
 
 // The far limit for box tests while a hit at `best_t` is known. A box entered exactly at best_t
-// must still be opened, since a triangle there may win the index tie-break; the slack of a few ulp
-// also covers the box and triangle tests rounding the same point differently.
-inline float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-20f; }
+// must still be opened, since a triangle there may win the index tie-break. The slack (about 1e-5
+// relative) covers the box and triangle tests rounding the same point differently: a box's entry
+// lies exactly before its triangles' hits, but the computed distances each carry a few ulp of error,
+// more on grazing rays.
+inline float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-16f; }
 
 class Bvh final : public StructureBase<Bvh> {
  public:
-  // The traversal stack bound: the builder keeps the depth below 48 + log2(n).
-  static constexpr int kStackSize = 128;
+  // The builder keeps the binary depth below 48 + log2(n); a 4-wide level pushes at most 3 entries
+  // more than it pops.
+  static constexpr int kStackSize = 256;
 
   Bvh(MeshPtr mesh, const BuildSettings& settings);
 
@@ -29,19 +38,18 @@ class Bvh final : public StructureBase<Bvh> {
     int size = 0;
     if (!enter_root(box_ray, record, stack, size)) return false;
     const TriangleTester tester(ray, settings_.triangle_test);
+    const Box4Ray box4(box_ray);
+    const Watertight4Ray tri4(tester.watertight);
     Hit best = initial_hit(ray);
     bool found = false;
     while (size > 0) {
       const Entry e = stack[--size];
       if (e.t_entry > box_limit(best.t)) continue;
-      const BvhNode& node = bvh_.nodes[e.node];
-      record.node(e.node, e.depth);
-      if (node.leaf()) {
-        found |= closest_in_triangles(*mesh_, tester, node.count,
-                                      [&](uint32_t i) { return bvh_.prims[node.index + i]; }, best, record);
-        continue;
-      }
-      push_children(node, e.depth, box_ray, box_limit(best.t), record, stack, size);
+      record_node(e, record);
+      if (e.count != 0)
+        found |= closest_in_leaf(tester, tri4, e, best, record);
+      else
+        push_children<true>(e, box4, box_limit(best.t), record, stack, size);
     }
     if (found) hit = best;
     return found;
@@ -55,72 +63,149 @@ class Bvh final : public StructureBase<Bvh> {
     int size = 0;
     if (!enter_root(box_ray, record, stack, size)) return false;
     const TriangleTester tester(ray, settings_.triangle_test);
+    const Box4Ray box4(box_ray);
+    const Watertight4Ray tri4(tester.watertight);
     while (size > 0) {
       const Entry e = stack[--size];
-      const BvhNode& node = bvh_.nodes[e.node];
-      record.node(e.node, e.depth);
-      if (node.leaf()) {
-        if (any_in_triangles(*mesh_, tester, node.count, [&](uint32_t i) { return bvh_.prims[node.index + i]; },
-                             ray.tmax, record))
-          return true;
-        continue;
+      record_node(e, record);
+      if (e.count == 0) {
+        push_children<false>(e, box4, ray.tmax, record, stack, size);
+      } else if (any_in_leaf(tester, tri4, e, record)) {
+        return true;
       }
-      push_children(node, e.depth, box_ray, ray.tmax, record, stack, size);
     }
     return false;
   }
 
+  // Box ids, as in boxes() and the story: node n is id n (0 the root), leaf k (in packet order)
+  // is id node_count + k.
   std::vector<BoxInfo> boxes() const override;
   size_t memory_bytes() const override;
 
-  const BinaryBvh& tree() const { return bvh_; }
+  const std::vector<Bvh4Node>& nodes() const { return nodes_; }
+  const std::vector<TrianglePacket>& packets() const { return packets_; }
 
  private:
   struct Entry {
-    uint32_t node;
-    int depth;
+    uint32_t ref;    // node index, or first packet of a leaf
+    uint32_t count;  // triangles of a leaf; 0 for a node
     float t_entry;
+    int depth;
   };
+
+  uint32_t leaf_id(uint32_t first_packet) const {
+    return uint32_t(nodes_.size() +
+                    (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) - leaf_packets_.begin()));
+  }
+
+  template <class Recorder>
+  void record_node(const Entry& e, Recorder& record) const {
+    if constexpr (Recorder::kActive) record.node(e.count != 0 ? leaf_id(e.ref) : e.ref, e.depth);
+  }
 
   template <class Recorder>
   bool enter_root(const BoxRay& box_ray, Recorder& record, Entry* stack, int& size) const {
     float t_entry = box_ray.tmin;
-    const bool hit = !bvh_.nodes.empty() && intersect_box(bvh_.nodes[0].bounds(), box_ray, box_ray.tmax, t_entry);
-    record.box(0, bvh_.nodes.empty() ? Bounds() : bvh_.nodes[0].bounds(), 0, hit, t_entry);
+    const bool hit = !nodes_.empty() && intersect_box(root_bounds_, box_ray, box_ray.tmax, t_entry);
+    record.box(0, root_bounds_, 0, hit, t_entry);
     if (!hit) {
       record.ignored();
       return false;
     }
-    stack[size++] = {0, 0, t_entry};
+    stack[size++] = {0, 0, t_entry, 0};
     return true;
   }
 
-  // Tests both children and pushes the ones hit, the nearer last so that it is visited first.
-  template <class Recorder>
-  void push_children(const BvhNode& node, int depth, const BoxRay& box_ray, float tmax, Recorder& record,
-                     Entry* stack, int& size) const {
-    const uint32_t c = node.index;
-    float t0 = box_ray.tmin, t1 = box_ray.tmin;
-    const bool h0 = intersect_box(bvh_.nodes[c].bounds(), box_ray, tmax, t0);
-    record.box(c, bvh_.nodes[c].bounds(), depth + 1, h0, t0);
-    const bool h1 = intersect_box(bvh_.nodes[c + 1].bounds(), box_ray, tmax, t1);
-    record.box(c + 1, bvh_.nodes[c + 1].bounds(), depth + 1, h1, t1);
-    if (h0 && h1) {
-      if (t1 < t0) {
-        stack[size++] = {c, depth + 1, t0};
-        stack[size++] = {c + 1, depth + 1, t1};
+  // Tests the four children of a node and pushes those hit; `Ordered` pushes them farthest first so
+  // that the nearest is visited next.
+  template <bool Ordered, class Recorder>
+  void push_children(const Entry& e, const Box4Ray& box4, float tmax, Recorder& record, Entry* stack,
+                     int& size) const {
+    const Bvh4Node& node = nodes_[e.ref];
+    __m128 entry;
+    int mask = intersect_box4(node, box4, tmax, entry);
+    alignas(16) float t[4];
+    _mm_store_ps(t, entry);
+    if constexpr (Recorder::kActive) {
+      for (int i = 0; i < 4; ++i)
+        if (node.used(i))
+          record.box(node.leaf(i) ? leaf_id(node.child[i]) : node.child[i], node.bounds(i), e.depth + 1,
+                     (mask >> i) & 1, t[i]);
+    }
+    const int first = size;
+    for (; mask != 0; mask &= mask - 1) {
+      const int i = std::countr_zero(unsigned(mask));
+      Entry c{node.child[i], node.count[i], t[i], e.depth + 1};
+      if constexpr (Ordered) {
+        int j = size;  // insertion: the stack segment of this node stays sorted, farthest at the bottom
+        while (j > first && stack[j - 1].t_entry < c.t_entry) {
+          stack[j] = stack[j - 1];
+          --j;
+        }
+        stack[j] = c;
       } else {
-        stack[size++] = {c + 1, depth + 1, t1};
-        stack[size++] = {c, depth + 1, t0};
+        stack[size] = c;
       }
-    } else if (h0) {
-      stack[size++] = {c, depth + 1, t0};
-    } else if (h1) {
-      stack[size++] = {c + 1, depth + 1, t1};
+      ++size;
     }
   }
 
-  BinaryBvh bvh_;
+  uint32_t triangle_at(const Entry& leaf, uint32_t i) const { return packets_[leaf.ref + i / 4].triangle[i % 4]; }
+
+  template <class Recorder>
+  bool closest_in_leaf(const TriangleTester& tester, const Watertight4Ray& tri4, const Entry& leaf, Hit& best,
+                       Recorder& record) const {
+    if (tester.test != TriangleTest::Watertight)
+      return closest_in_triangles(*mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, best,
+                                  record);
+    bool found = false;
+    for (uint32_t p = 0; p * 4 < leaf.count; ++p) {
+      const TrianglePacket& packet = packets_[leaf.ref + p];
+      const int lanes = int(std::min(4u, leaf.count - 4 * p));
+      float t[4], u[4], v[4];
+      int mask = intersect_watertight4(tri4, packet, tester.ray.tmin, best.t, t, u, v) & ((1 << lanes) - 1);
+      if constexpr (Recorder::kActive)
+        for (int lane = 0; lane < lanes; ++lane) record.triangle(packet.triangle[lane], (mask >> lane) & 1);
+      for (; mask != 0; mask &= mask - 1) {
+        const int lane = std::countr_zero(unsigned(mask));
+        const uint32_t triangle = packet.triangle[lane];
+        if (closer({t[lane], u[lane], v[lane]}, triangle, best)) {
+          best.t = t[lane];
+          best.u = u[lane];
+          best.v = v[lane];
+          best.triangle = triangle;
+          found = true;
+        }
+      }
+    }
+    return found;
+  }
+
+  template <class Recorder>
+  bool any_in_leaf(const TriangleTester& tester, const Watertight4Ray& tri4, const Entry& leaf, Recorder& record) const {
+    if (tester.test != TriangleTest::Watertight)
+      return any_in_triangles(*mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); },
+                              tester.ray.tmax, record);
+    for (uint32_t p = 0; p * 4 < leaf.count; ++p) {
+      const TrianglePacket& packet = packets_[leaf.ref + p];
+      const int lanes = int(std::min(4u, leaf.count - 4 * p));
+      float t[4], u[4], v[4];
+      const int mask =
+          intersect_watertight4(tri4, packet, tester.ray.tmin, tester.ray.tmax, t, u, v) & ((1 << lanes) - 1);
+      if constexpr (Recorder::kActive) {
+        // As the scalar loop: every triangle up to the first hit is tested.
+        const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
+        for (int lane = 0; lane < tested; ++lane) record.triangle(packet.triangle[lane], (mask >> lane) & 1);
+      }
+      if (mask != 0) return true;
+    }
+    return false;
+  }
+
+  Bounds root_bounds_;
+  std::vector<Bvh4Node> nodes_;
+  std::vector<TrianglePacket> packets_;
+  std::vector<uint32_t> leaf_packets_;  // first packet of each leaf, increasing: leaf k's id
 };
 
 std::unique_ptr<Structure> build_bvh(MeshPtr mesh, const BuildSettings& settings);
