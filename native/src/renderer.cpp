@@ -69,7 +69,8 @@ struct PlacedLight {
 struct PlacedInstance {
   const TriangleMesh* mesh;
   const Material* material;
-  glm::mat3 normal_matrix;  // inverse transpose of the object-to-world linear part
+  glm::mat4 transform;      // object to world
+  glm::mat3 normal_matrix;  // inverse transpose of its linear part
 };
 
 class Tracer {
@@ -189,7 +190,11 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   n = length > 0.0f && std::isfinite(length) ? n / length : -d;
   const bool entering = glm::dot(n, d) < 0.0f;  // against the winding's normal: from outside
   const glm::vec3 nf = entering ? n : -n;        // faces the incoming ray
-  const glm::vec3 p = ray.at(hit.t);
+  // The hit point from the barycentrics, not from origin + t * direction: its rounding error is then
+  // relative to the point itself, as the integer-ulp offset assumes. From the ray, the error would be
+  // relative to the ray's length and origin, and a far camera would sink points below a floor
+  // through the origin by more than the offset lifts them.
+  const glm::vec3 p = glm::vec3(inst.transform * glm::vec4((1.0f - hit.u - hit.v) * a + hit.u * b + hit.v * c, 1.0f));
   const glm::vec3 v = -d;
 
   const float kr = m.reflectivity + m.metallic * (1.0f - m.reflectivity);
@@ -328,7 +333,7 @@ RenderResult render(const Scene& scene, const CameraSettings& camera_settings, s
     require(inst.material < materials.size(),
             "instance " + std::to_string(i) + " uses material " + std::to_string(inst.material) + " but " +
                 std::to_string(materials.size()) + " materials were given");
-    instances.push_back({&scene.mesh(inst.mesh), &materials[inst.material],
+    instances.push_back({&scene.mesh(inst.mesh), &materials[inst.material], inst.transform,
                          glm::transpose(glm::inverse(glm::mat3(inst.transform)))});
   }
   const Tracer tracer(scene, std::move(instances), std::move(placed_lights), settings);
@@ -374,7 +379,7 @@ RenderResult render(const Scene& scene, const CameraSettings& camera_settings, s
             const bool found = scene.closest(ray, hit, &stats.traversal);
             if (centre_is_sample && i == ss / 2 && j == ss / 2 && found) {
               result.instance[pixel] = int32_t(hit.instance);
-              result.distance[pixel] = glm::length(ray.at(hit.t) - ray.origin);
+              result.distance[pixel] = hit.t;  // the direction has unit length
             }
             sum += found ? tracer.shade(ray, hit, 0, stats, random) : settings.background;
           }
@@ -384,7 +389,7 @@ RenderResult render(const Scene& scene, const CameraSettings& camera_settings, s
           Hit hit;
           if (scene.closest(ray, hit)) {
             result.instance[pixel] = int32_t(hit.instance);
-            result.distance[pixel] = glm::length(ray.at(hit.t) - ray.origin);
+            result.distance[pixel] = hit.t;  // the direction has unit length
           }
         }
         const glm::vec3 color = sum / float(ss * ss);

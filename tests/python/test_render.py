@@ -1,0 +1,225 @@
+"""raylab.render from Python: the image and its buffers, the same picture from every structure,
+progress and cancellation, the ray counts, shadows, image files, bad input, and stability of shadows
+far from the origin and at small scales (the robust ray offset against a fixed epsilon)."""
+import math
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import raylab
+
+W, H = 48, 36
+
+
+def translation(t):
+    m = np.eye(4)
+    m[:3, 3] = t
+    return m
+
+
+def scaling(s):
+    m = np.eye(4)
+    m[0, 0] = m[1, 1] = m[2, 2] = s
+    return m
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)):
+    """Camera-to-world matrix of a Blender camera at `eye` looking at `target` (down its local -Z)."""
+    eye, target, up = (np.asarray(v, np.float64) for v in (eye, target, up))
+    back = eye - target
+    back /= np.linalg.norm(back)
+    right = np.cross(up, back)
+    right /= np.linalg.norm(right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
+    return m
+
+
+def box_mesh(lo, hi):
+    """An axis-aligned box as 12 outward-wound triangles."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    v = np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
+                  [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]], np.float32)
+    t = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+                  [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]], np.uint32)
+    return v, t
+
+
+# The scene is 400 units across. At 1e4 an ulp is 0.001 and the robust offset (256 ulps) 0.25 units:
+# that is what keeps a shadow ray off its own surface, and it is small against these boxes, so it
+# moves the shadows' edges by a small fraction of a pixel.
+BASE = np.diag([100.0, 100.0, 100.0, 1.0])
+ENERGY = 400.0 * 100.0**2
+
+
+def make_scene(structure="bvh", world=BASE):
+    """A 4 x 4 floor with a box standing on it and a second, rotated box, times BASE; `world` places it."""
+    scene = raylab.Scene(structure=structure, max_depth=6, leaf_size=8)
+    floor = scene.add_mesh(*box_mesh((-2, -2, -0.1), (2, 2, 0)))
+    box = scene.add_mesh(*box_mesh((-0.5, -0.5, 0), (0.5, 0.5, 1)))
+    scene.add_instance(floor, world, material=0)
+    turn = np.eye(4)
+    turn[:2, :2] = [[math.cos(0.6), -math.sin(0.6)], [math.sin(0.6), math.cos(0.6)]]
+    scene.add_instance(box, world @ translation((-0.6, 0.4, 0)) @ turn @ scaling(0.8), material=1)
+    scene.add_instance(box, world @ translation((0.9, -0.7, 0)) @ scaling(0.5), material=0)
+    scene.commit()
+    return scene
+
+
+def make_view(world=BASE, energy=ENERGY):
+    camera = dict(type="PERSP", matrix_world=world @ look_at((3.0, -4.0, 3.0), (0.0, 0.0, 0.0)), lens=30.0,
+                  resolution_x=W, resolution_y=H, resolution_percentage=100, clip_start=0.001, clip_end=1e5)
+    lights = [dict(type="POINT", color=(1.0, 1.0, 1.0), energy=energy, matrix_world=world @ translation((-2.0, -2.5, 2.5)))]
+    materials = [dict(diffuse=(0.8, 0.8, 0.8), specular=0.2, shininess=20.0, ambient=0.1),
+                 dict(diffuse=(0.8, 0.3, 0.2), reflectivity=0.3)]
+    return camera, lights, materials
+
+
+def render(scene, settings=None, world=BASE, energy=ENERGY, progress=None):
+    camera, lights, materials = make_view(world, energy)
+    settings = dict(dict(background=(0.1, 0.2, 0.3), ambient=(1.0, 1.0, 1.0)), **(settings or {}))
+    return raylab.render(scene, camera, lights, materials, settings, progress=progress)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return make_scene()
+
+
+@pytest.fixture(scope="module")
+def result(scene):
+    return render(scene)
+
+
+def test_image_and_buffers_have_the_agreed_shapes(result):
+    assert result.image.shape == (H, W, 4) and result.image.dtype == np.float32
+    assert result.instance.shape == (H, W) and result.instance.dtype == np.int32
+    assert result.distance.shape == (H, W) and result.distance.dtype == np.float32
+    assert not result.cancelled
+    assert np.all(result.image[..., 3] == 1.0)
+    hit = result.instance >= 0
+    assert set(np.unique(result.instance)) == {-1, 0, 1, 2}
+    assert np.all(np.isfinite(result.distance[hit])) and np.all(np.isinf(result.distance[~hit]))
+    # Row 0 is the top of the picture: the camera looks down at the floor, whose near edge is at the bottom.
+    floor = result.instance == 0
+    assert result.distance[H // 2:][floor[H // 2:]].mean() < result.distance[:H // 2][floor[:H // 2]].mean()
+    assert np.allclose(result.image[~hit][:, :3], (0.1, 0.2, 0.3))
+
+
+def test_every_structure_renders_the_same_image(result):
+    for structure in raylab.STRUCTURES:
+        other = render(make_scene(structure))
+        assert other.stats["structure"] == structure
+        assert np.array_equal(other.image, result.image), structure
+        assert np.array_equal(other.instance, result.instance), structure
+        assert np.array_equal(other.distance, result.distance), structure
+        assert other.stats["rays_shadow"] == result.stats["rays_shadow"], structure
+
+
+def test_stats_count_the_rays(scene, result):
+    s = result.stats
+    assert (s["width"], s["height"]) == (W, H)
+    assert s["rays_primary"] == W * H
+    assert 0 < s["rays_shadow"] <= W * H + s["rays_reflection"]  # one light: at most one per hit
+    assert s["rays_reflection"] == 0 or s["rays_reflection"] <= np.count_nonzero(result.instance == 1)
+    assert s["rays_refraction"] == 0
+    assert s["box_tests"] > 0 and s["triangle_tests"] > 0 and s["nodes_visited"] > 0
+    assert s["render_seconds"] > 0 and s["memory_bytes"] > 0 and s["build_seconds"] >= 0
+    ss = render(scene, dict(super_sampling=3)).stats
+    assert ss["rays_primary"] == W * H * 9
+    # The primary-hit buffers come from the pixel centres whatever the sampling.
+    even = render(scene, dict(super_sampling=2))
+    assert even.stats["rays_primary"] == W * H * 4
+    assert np.array_equal(even.instance, result.instance)
+
+
+def test_progress_is_reported_and_true_cancels(scene):
+    seen = []
+    done = render(scene, progress=lambda f: seen.append(f))
+    assert not done.cancelled and seen and all(0.0 <= f <= 1.0 for f in seen)
+    cancelled = render(scene, progress=lambda f: True)
+    assert cancelled.cancelled
+    assert cancelled.stats["rays_primary"] < W * H
+
+
+def test_exception_in_progress_cancels_and_is_raised(scene):
+    def progress(fraction):
+        raise KeyError("stop here")
+
+    with pytest.raises(KeyError, match="stop here"):
+        render(scene, progress=progress)
+
+
+def test_shadows_switch_darkens_only_the_shadowed_pixels(scene, result):
+    unshadowed = render(scene, dict(shadows=False))
+    assert unshadowed.stats["rays_shadow"] == 0
+    brighter = unshadowed.image[..., 0] > result.image[..., 0] + 1e-6
+    darker = unshadowed.image[..., 0] < result.image[..., 0] - 1e-6
+    # The boxes shadow part of the floor; switching shadows off never darkens a pixel.
+    assert brighter.sum() > 0.02 * W * H and not darker.any()
+    floor_in_shadow = brighter & (result.instance == 0)
+    assert floor_in_shadow.sum() > 0
+
+
+def test_write_image_png_and_exr(tmp_path, result):
+    for ext, magic in ((".png", b"\x89PNG\r\n\x1a\n"), (".exr", b"\x76\x2f\x31\x01")):
+        path = tmp_path / f"render{ext}"
+        raylab.write_image(path, result.image)
+        data = path.read_bytes()
+        assert data.startswith(magic) and len(data) > 200
+        if shutil.which("oiiotool"):
+            info = subprocess.run(["oiiotool", "--info", str(path)], capture_output=True, text=True).stdout
+            assert re.search(rf"\b{W}\s+x\s+{H}, 4 channel", info), info
+    with pytest.raises(RuntimeError, match="no_such_dir"):
+        raylab.write_image(tmp_path / "no_such_dir" / "x.png", result.image)
+
+
+def test_bad_input_raises_value_error_naming_it(scene):
+    camera, lights, materials = make_view()
+    with pytest.raises(ValueError, match="matrix_world"):
+        raylab.render(scene, {k: v for k, v in camera.items() if k != "matrix_world"}, lights, materials, {})
+    with pytest.raises(ValueError, match="lense"):
+        raylab.render(scene, dict(camera, lense=50.0), lights, materials, {})
+    with pytest.raises(ValueError, match="type"):
+        raylab.render(scene, camera, [dict(lights[0], type="LASER")], materials, {})
+    with pytest.raises(ValueError, match="material 1"):
+        raylab.render(scene, camera, lights, materials[:1], {})
+    for ss in (0, 5):
+        with pytest.raises(ValueError, match="super_sampling"):
+            raylab.render(scene, camera, lights, materials, dict(super_sampling=ss))
+    with pytest.raises(ValueError, match="resolution_x"):
+        raylab.render(scene, dict(camera, resolution_x=0), lights, materials, {})
+    with pytest.raises(ValueError, match="matrix_world"):
+        raylab.render(scene, dict(camera, matrix_world=np.eye(3)), lights, materials, {})
+    with pytest.raises(TypeError):
+        raylab.render("not a scene", camera, lights, materials, {})
+
+
+def lit_fraction(scene, settings, world=BASE, energy=ENERGY):
+    """Fraction of the surface pixels that no shadow ray found blocked: shadows only take light away,
+    so a pixel is shadowed exactly where it is darker than with shadows off."""
+    on = render(scene, dict(settings, shadows=True), world, energy)
+    off = render(scene, dict(settings, shadows=False), world, energy)
+    hit = on.instance >= 0
+    shadowed = (on.image[..., :3] < off.image[..., :3]).any(axis=2)
+    return np.count_nonzero(~shadowed & hit) / np.count_nonzero(hit)
+
+
+@pytest.mark.parametrize("name, world, energy", [
+    ("translated to 1e4", translation((1e4, -1e4, 1e4)) @ BASE, ENERGY),
+    ("scaled by 1e-3", scaling(1e-3) @ BASE, ENERGY * 1e-6),  # the same irradiance: energy / r^2
+])
+def test_shadows_stay_right_far_away_and_small_with_the_robust_offset(name, world, energy):
+    reference = lit_fraction(make_scene(), dict(robust_offset=True))
+    moved_scene = make_scene(world=world)
+    robust = lit_fraction(moved_scene, dict(robust_offset=True), world, energy)
+    fixed = lit_fraction(moved_scene, dict(robust_offset=False, fixed_epsilon=1e-4), world, energy)
+    print(f"\n{name}: lit fraction at the origin {reference:.4f}, robust offset {robust:.4f}, "
+          f"fixed epsilon 1e-4 {fixed:.4f}")
+    assert abs(robust - reference) < 0.005
+    if name.startswith("translated"):
+        # 1e-4 is below half an ulp of 1e4: the offset rounds away and surfaces shadow themselves.
+        assert fixed < reference - 0.1
