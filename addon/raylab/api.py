@@ -16,7 +16,7 @@ from . import _raylab
 
 __all__ = [
     "STRUCTURES", "TRIANGLE_TESTS", "BuildError", "load_mesh", "build", "build_file",
-    "Structure", "Hits", "Occlusion", "RayStory",
+    "Structure", "Scene", "Hits", "Occlusion", "RayStory", "render", "write_image",
 ]
 
 STRUCTURES = ("none", "aabb", "octree", "bvh")
@@ -134,3 +134,62 @@ def build_file(path, structure="bvh", max_depth=6, leaf_size=8, triangle_test="w
     """build() over the mesh read from an OBJ file."""
     return Structure(_raylab.build_file(_path(path), structure, max_depth, leaf_size, triangle_test,
                                         memory_budget))
+
+
+class Scene:
+    """Meshes and instances of them (mesh + (4,4) row-major object-to-world matrix + material).
+
+    One structure per mesh, in object space, shared by all its instances; commit() builds what is
+    missing or stale (a moved instance costs no rebuild). Queries return world-space t and the
+    instance id of each hit.
+    """
+
+    __slots__ = ("native",)
+
+    def __init__(self, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight", memory_budget=None):
+        self.native = _raylab.Scene(structure, max_depth, leaf_size, triangle_test, memory_budget)
+
+    def add_mesh(self, vertices, triangles):
+        """Adds a mesh ((V,3) vertices, (T,3) triangles, validated as in build()); returns its id."""
+        return self.native.add_mesh(vertices, triangles)
+
+    def replace_mesh(self, mesh, vertices, triangles):
+        """Replaces mesh `mesh`: only its own structure is rebuilt at the next commit()."""
+        self.native.replace_mesh(mesh, vertices, triangles)
+
+    def add_instance(self, mesh, matrix, material=0):
+        """Adds an instance of mesh `mesh` with a (4,4) row-major object-to-world matrix; returns its id."""
+        return self.native.add_instance(mesh, matrix, material)
+
+    def set_transform(self, instance, matrix):
+        self.native.set_transform(instance, matrix)
+
+    def set_settings(self, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
+                     memory_budget=None):
+        """New build settings: every mesh structure is rebuilt at the next commit()."""
+        self.native.set_settings(structure, max_depth, leaf_size, triangle_test, memory_budget)
+
+    def commit(self):
+        """Builds what changed since the last commit; queries need it."""
+        self.native.commit()
+
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
+        """Closest hits of world-space rays, as Structure.intersect; h.instance says which instance."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count))
+
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count))
+
+    mesh_count = property(lambda self: self.native.mesh_count)
+    instance_count = property(lambda self: self.native.instance_count)
+    memory_bytes = property(lambda self: self.native.memory_bytes, doc="structures and top level, in bytes")
+    build_seconds = property(lambda self: self.native.build_seconds, doc="of the last commit()")
+
+    def bounds(self):
+        """World bounds of every instance: ((3,) lo, (3,) hi)."""
+        return self.native.bounds()
+
+
+# The renderer (native/python/render_bindings.cpp) takes a Scene above or its native scene.
+render = _raylab.render
+write_image = _raylab.write_image

@@ -36,4 +36,6 @@ py::dict stats_to_dict(const TraversalStats& stats);
 
 const char* triangle_test_name(TriangleTest test);
 
+void bind_scene(py::module_& m);  // core_scene.cpp
+
 }  // namespace raylab::python

@@ -198,6 +198,8 @@ void bind_core(py::module_& m) {
       },
       py::arg("path"), py::arg("structure") = "bvh", py::arg("max_depth") = 6, py::arg("leaf_size") = 8,
       py::arg("triangle_test") = "watertight", py::arg("memory_budget") = py::none());
+
+  bind_scene(m);
 }
 
 }  // namespace raylab::python
