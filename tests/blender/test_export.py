@@ -25,10 +25,12 @@ def addon_registered():
 
 def clear_scene():
     scene = bpy.context.scene
-    for obj in list(scene.objects):
+    for obj in list(bpy.data.objects):   # also those only in unlinked collections: names stay as created
         bpy.data.objects.remove(obj)
     for collection in list(bpy.data.collections):
         bpy.data.collections.remove(collection)
+    for mesh in list(bpy.data.meshes):   # new primitives take their object's name from a free mesh name
+        bpy.data.meshes.remove(mesh)
     return scene
 
 
