@@ -136,7 +136,11 @@ def test_status_fields_are_read_only(torus_scene):
 
 
 def test_no_ray_source_gives_no_status(torus_scene):
-    scene = torus_scene[0]
+    scene, _, ray = torus_scene
+    ray.scale = (0.0, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    assert probe.evaluate_probe(scene)["status"] == ""
+    assert "scaled to zero" in probe.status_text(scene)[0]
     scene.raylab.probe_object = None
     assert probe.evaluate_probe(scene)["status"] == ""
     assert "No ray object" in probe.status_text(scene)[0]

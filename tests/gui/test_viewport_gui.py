@@ -43,7 +43,9 @@ def shoot(structure, blend):
         path = os.path.join(OUT, f"viewport_{structure}{suffix}")
         if os.path.exists(path):
             os.remove(path)
-    subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
+    # --python-exit-code: a script that fails to start quits Blender instead of leaving the window open.
+    subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
+                    "--python-exit-code", "1", blend,
                     "--python", os.path.join(ROOT, "tests", "gui", "viewport_shot.py"), "--", OUT, structure],
                    capture_output=True, timeout=300)
     with open(os.path.join(OUT, f"viewport_{structure}.json")) as f:

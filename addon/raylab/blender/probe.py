@@ -89,8 +89,8 @@ def _object_rays(obj, directions_local):
     directions = directions_local @ matrix[:3, :3].T
     lengths = np.linalg.norm(directions, axis=1, keepdims=True)
     if not np.all(lengths > 0):
-        raise ValueError(f"the ray object '{obj.name}' is scaled to zero: its -Z axis has no direction")
-    return np.tile(matrix[:3, 3], (len(directions), 1)), directions / lengths
+        return None, None, f"The ray object '{obj.name}' is scaled to zero: its -Z axis points nowhere"
+    return np.tile(matrix[:3, 3], (len(directions), 1)), directions / lengths, None
 
 
 def probe_rays(scene, fan=False):
@@ -114,7 +114,7 @@ def probe_rays(scene, fan=False):
         local = np.concatenate([spread, -np.ones((len(grid), 1))], axis=1)
     else:
         local = np.array([[0.0, 0.0, -1.0]])
-    return (*_object_rays(obj, local), None)
+    return _object_rays(obj, local)
 
 
 # --- evaluation ------------------------------------------------------------------------------------
