@@ -298,13 +298,13 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   if (reports && !PyCallable_Check(progress.ptr())) throw py::type_error("progress must be callable or None");
 
   RenderProgress state;
-  std::optional<py::error_already_set> progress_error;
-  // A true answer or an exception cancels; the exception is raised again once the render stopped.
+  std::optional<py::error_already_set> python_error;
+  // A true answer, an exception or Ctrl-C cancels; the exception is raised once the render stopped.
   const auto report = [&] {
     try {
       if (py::bool_(progress(state.fraction()))) state.cancel();
     } catch (py::error_already_set& e) {
-      progress_error.emplace(std::move(e));
+      python_error.emplace(std::move(e));
       state.cancel();
     }
   };
@@ -329,18 +329,23 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
     });
     std::unique_lock lock(mutex);
     while (!finished.wait_for(lock, std::chrono::milliseconds(100), [&] { return done; })) {
-      if (!reports || state.cancel_requested.load()) continue;
+      if (state.cancel_requested.load()) continue;
       lock.unlock();
       {
         py::gil_scoped_acquire acquire;
-        report();
+        if (PyErr_CheckSignals() != 0) {
+          python_error.emplace();  // takes the pending KeyboardInterrupt
+          state.cancel();
+        } else if (reports) {
+          report();
+        }
       }
       lock.lock();
     }
     lock.unlock();
     worker.join();
   }
-  if (progress_error) throw std::move(*progress_error);
+  if (python_error) throw std::move(*python_error);
   if (failure) std::rethrow_exception(failure);
 
   const py::ssize_t h = result.height, w = result.width;

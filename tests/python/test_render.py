@@ -196,6 +196,10 @@ def test_bad_input_raises_value_error_naming_it(scene):
         raylab.render(scene, dict(camera, matrix_world=np.eye(3)), lights, materials, {})
     with pytest.raises(TypeError):
         raylab.render("not a scene", camera, lights, materials, {})
+    uncommitted = raylab.Scene()
+    uncommitted.add_instance(uncommitted.add_mesh(*box_mesh((0, 0, 0), (1, 1, 1))), np.eye(4))
+    with pytest.raises(RuntimeError, match="commit"):
+        raylab.render(uncommitted, camera, lights, materials, {})
 
 
 def lit_fraction(scene, settings, world=BASE, energy=ENERGY):
