@@ -1,9 +1,180 @@
-// `octree`: see DESIGN.md. Implemented in src/octree.cpp.
+// `octree`: the root is the mesh's bounding box grown to a cube (depth 0 = the root alone). A node
+// splits into its 8 octants while depth < max_depth and it holds more than leaf_size triangles; a
+// triangle goes to every octant it truly overlaps (separating-axis test, triangle_box_overlap.h),
+// never by "a vertex lies inside", so a large triangle is found in every leaf it crosses. Empty
+// octants are not allocated. Traversal visits children front to back and stops as soon as the
+// closest hit lies before the next child's entry. Built in src/octree.cpp.
 #pragma once
 
+#include "raylab/box_intersection.h"
 #include "raylab/structure.h"
+#include "raylab/triangle_loop.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <span>
 
 namespace raylab {
+
+// One node in 8 bytes. The children of a node are stored next to each other in octant order, so an
+// inner node needs only the index of its first child and a mask of the octants that exist; a leaf
+// references a run of the octree's one triangle-index array.
+struct OctreeNode {
+  static constexpr uint32_t kLeaf = 0x80000000u;
+  uint32_t first = 0;     // inner: index of the first child; leaf: first entry in the index array
+  uint32_t bits = kLeaf;  // leaf: kLeaf | triangle count; inner: child mask (bit i: octant i exists)
+
+  bool leaf() const { return (bits & kLeaf) != 0; }
+  uint32_t triangle_count() const { return bits & ~kLeaf; }
+  uint32_t child_mask() const { return bits & 0xffu; }
+  // The node index of the child in `octant`, which must exist.
+  uint32_t child(int octant) const {
+    return first + uint32_t(std::popcount(child_mask() & ((1u << octant) - 1u)));
+  }
+};
+
+// Octant i of a box: bit 0 selects the upper half in x, bit 1 in y, bit 2 in z. Build and traversal
+// both derive boxes with this one function, so octants share their splitting planes bit for bit and
+// tile their parent exactly.
+inline Bounds octant_bounds(const Bounds& box, int octant) {
+  const glm::vec3 mid = box.center();
+  Bounds b;
+  for (int axis = 0; axis < 3; ++axis) {
+    const bool upper = (octant >> axis) & 1;
+    b.lo[axis] = upper ? mid[axis] : box.lo[axis];
+    b.hi[axis] = upper ? box.hi[axis] : mid[axis];
+  }
+  return b;
+}
+
+class Octree final : public StructureBase<Octree> {
+ public:
+  // BuildSettings::validate's limit on max_depth; it sizes the traversal stack.
+  static constexpr int kMaxDepth = 16;
+
+  // Throws BuildError as soon as the build would need more than settings.memory_budget bytes.
+  Octree(MeshPtr mesh, const BuildSettings& settings);
+
+  template <class Recorder>
+  bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
+    record.ray();
+    const TriangleTester tester(ray, settings_.triangle_test);
+    Hit best = initial_hit(ray);
+    bool found = false;
+    walk(ray, record, [&] { return best.t; }, [&](const OctreeNode& leaf) {
+      found |= closest_in_triangles(*mesh_, tester, leaf.triangle_count(),
+                                    [&](uint32_t i) { return triangles_[leaf.first + i]; }, best, record);
+      return false;
+    });
+    if (found) hit = best;
+    return found;
+  }
+
+  template <class Recorder>
+  bool traverse_any(const Ray& ray, Recorder& record) const {
+    record.ray();
+    const TriangleTester tester(ray, settings_.triangle_test);
+    bool occluded = false;
+    walk(ray, record, [&] { return ray.tmax; }, [&](const OctreeNode& leaf) {
+      occluded = any_in_triangles(*mesh_, tester, leaf.triangle_count(),
+                                  [&](uint32_t i) { return triangles_[leaf.first + i]; }, ray.tmax, record);
+      return occluded;
+    });
+    return occluded;
+  }
+
+  // Every node in index order (parents before children). A leaf's triangle_count is its own; an
+  // inner node's is the number of distinct triangles referenced by the leaves below it.
+  std::vector<BoxInfo> boxes() const override;
+  // The nodes and the triangle-index array.
+  size_t memory_bytes() const override;
+
+  const Bounds& root_bounds() const { return root_; }
+  std::span<const OctreeNode> nodes() const { return nodes_; }
+  // The triangles of a leaf, in ascending index order.
+  std::span<const uint32_t> leaf_triangles(uint32_t node) const {
+    const OctreeNode& n = nodes_[node];
+    return {triangles_.data() + n.first, n.triangle_count()};
+  }
+
+ private:
+  // Box tests and the early exit compare box distances with triangle distances, which are rounded
+  // differently. Widening the searched interval [tmin, tmax] by this fraction of the distances
+  // involved (|t| plus the octree's size along the ray) keeps every rounding difference on the safe
+  // side: a box holding the brute-force hit is never skipped, at the price of rarely testing a box
+  // that lies a hair beyond the hit.
+  static constexpr float kSearchSlack = 1e-5f;
+
+  struct StackEntry {
+    Bounds box;
+    uint32_t node;
+    int depth;
+    float t_entry;
+  };
+
+  // The front-to-back walk both queries share. `limit()` is the far end of the search (the closest
+  // hit so far, or ray.tmax); `visit_leaf(node)` tests a leaf's triangles and returns true to stop.
+  template <class Recorder, class Limit, class VisitLeaf>
+  void walk(const Ray& ray, Recorder& record, Limit limit, VisitLeaf visit_leaf) const {
+    const float size_along_ray = 4.0f * root_side_ / glm::length(ray.direction);
+    auto widen = [&](float t) { return kSearchSlack * (std::abs(t) + size_along_ray); };
+    Ray search = ray;
+    search.tmin = ray.tmin - widen(ray.tmin);
+    const BoxRay box_ray(search);
+
+    float t_root = ray.tmin;
+    const bool hit_root =
+        !nodes_.empty() && intersect_box(root_, box_ray, limit() + widen(limit()), t_root);
+    t_root = std::max(t_root, ray.tmin);
+    record.box(0, root_, 0, hit_root, t_root);
+    if (!hit_root) {
+      record.ignored();
+      return;
+    }
+    // Visiting octants in the order k ^ near_octant is front to back: along a ray each octant bit
+    // can only turn on, so the octants a ray passes come in increasing order of k.
+    const int near_octant =
+        (ray.direction.x < 0.0f ? 1 : 0) | (ray.direction.y < 0.0f ? 2 : 0) | (ray.direction.z < 0.0f ? 4 : 0);
+
+    // DFS keeps at most the 8 children of one node per depth on the stack.
+    StackEntry stack[8 * kMaxDepth + 1];
+    int top = 0;
+    stack[top++] = {root_, 0, 0, t_root};
+    while (top > 0) {
+      const StackEntry entry = stack[--top];
+      const float far = limit() + widen(limit());
+      if (entry.t_entry > far) continue;  // the closest hit so far lies before this box
+      record.node(entry.node, entry.depth);
+      const OctreeNode node = nodes_[entry.node];
+      if (node.leaf()) {
+        if (visit_leaf(node)) return;
+        continue;
+      }
+      StackEntry entered[8];
+      int count = 0;
+      for (int k = 0; k < 8; ++k) {
+        const int octant = k ^ near_octant;
+        if (!((node.child_mask() >> octant) & 1u)) continue;
+        const Bounds box = octant_bounds(entry.box, octant);
+        const uint32_t child = node.child(octant);
+        float t = ray.tmin;
+        const bool hit = intersect_box(box, box_ray, far, t);
+        t = std::max(t, ray.tmin);
+        record.box(child, box, entry.depth + 1, hit, t);
+        if (hit) entered[count++] = {box, child, entry.depth + 1, t};
+      }
+      while (count > 0) stack[top++] = entered[--count];  // the nearest child on top
+    }
+  }
+
+  void build();
+
+  Bounds root_;
+  float root_side_ = 0.0f;
+  std::vector<OctreeNode> nodes_;     // breadth first: node 0 is the root
+  std::vector<uint32_t> triangles_;   // the leaves' runs, one after another
+};
 
 std::unique_ptr<Structure> build_octree(MeshPtr mesh, const BuildSettings& settings);
 

@@ -1,0 +1,367 @@
+#include "raylab/mesh_io.h"
+#include "raylab/octree.h"
+#include "raylab/structure.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <random>
+
+using namespace raylab;
+
+namespace {
+
+MeshPtr mesh_of(std::vector<glm::vec3> vertices, std::vector<glm::uvec3> triangles) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  mesh->vertices = std::move(vertices);
+  mesh->triangles = std::move(triangles);
+  return mesh;
+}
+
+MeshPtr shipped(const std::string& name) {
+  return std::make_shared<TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/" + name));
+}
+
+std::unique_ptr<Structure> build(const MeshPtr& mesh, StructureKind kind, int max_depth = 6, int leaf_size = 8,
+                                 size_t memory_budget = BuildSettings{}.memory_budget) {
+  BuildSettings s;
+  s.kind = kind;
+  s.max_depth = max_depth;
+  s.leaf_size = leaf_size;
+  s.memory_budget = memory_budget;
+  return build_structure(mesh, s);
+}
+
+const Octree& octree_of(const Structure& s) { return dynamic_cast<const Octree&>(s); }
+
+// A tiny triangle near `corner` of the unit cube, pointing inwards.
+void add_corner_triangle(std::vector<glm::vec3>& v, std::vector<glm::uvec3>& t, glm::vec3 corner) {
+  const glm::vec3 inward = glm::vec3(1.0f) - 2.0f * corner;  // +1 at a 0 coordinate, -1 at a 1
+  const uint32_t base = uint32_t(v.size());
+  v.push_back(corner);
+  v.push_back(corner + 0.01f * glm::vec3(inward.x, 0, 0));
+  v.push_back(corner + 0.01f * glm::vec3(0, inward.y, 0));
+  t.push_back({base, base + 1, base + 2});
+}
+
+// One large tilted triangle across the unit cube plus a tiny triangle in every corner, so the octree
+// splits all around the large one while its three vertices sit in only three octants.
+MeshPtr large_triangle_mesh() {
+  std::vector<glm::vec3> v = {{0.05f, 0.05f, 0.3f}, {0.95f, 0.1f, 0.6f}, {0.2f, 0.95f, 0.7f}};
+  std::vector<glm::uvec3> t = {{0, 1, 2}};
+  for (int c = 0; c < 8; ++c) add_corner_triangle(v, t, glm::vec3(c & 1, (c >> 1) & 1, (c >> 2) & 1));
+  return mesh_of(std::move(v), std::move(t));
+}
+
+void expect_same_closest(const Structure& reference, const Structure& s, const Ray& ray) {
+  Hit expected, got;
+  const bool a = reference.closest(ray, expected);
+  const bool b = s.closest(ray, got);
+  ASSERT_EQ(a, b) << "origin " << ray.origin.x << " " << ray.origin.y << " " << ray.origin.z;
+  if (!a) return;
+  EXPECT_EQ(expected.triangle, got.triangle);
+  EXPECT_EQ(expected.t, got.t);
+  EXPECT_EQ(expected.u, got.u);
+  EXPECT_EQ(expected.v, got.v);
+}
+
+// Random rays around and inside a mesh, half of them aimed exactly at a vertex (the hard case: the
+// hit lies on edges shared by several triangles, often on an octant boundary).
+std::vector<Ray> random_rays(const TriangleMesh& mesh, size_t count, uint32_t seed) {
+  std::mt19937 rng(seed);
+  const Bounds b = mesh.bounds();
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f), signed_unit(-1.0f, 1.0f);
+  std::uniform_int_distribution<uint32_t> vertex(0, uint32_t(mesh.vertices.size() - 1));
+  std::vector<Ray> rays(count);
+  for (size_t i = 0; i < count; ++i) {
+    const glm::vec3 f(unit(rng), unit(rng), unit(rng));
+    rays[i].origin = b.lo - 0.5f * b.extent() + 2.0f * f * b.extent();
+    rays[i].direction = i % 2 ? mesh.vertices[vertex(rng)] - rays[i].origin
+                              : glm::vec3(signed_unit(rng), signed_unit(rng), signed_unit(rng));
+  }
+  return rays;
+}
+
+// Pinhole-camera rays from 2.5 mesh sizes away through a grid covering the mesh.
+std::vector<Ray> camera_rays(const TriangleMesh& mesh, int side) {
+  const Bounds b = mesh.bounds();
+  const float size = glm::length(b.extent());
+  const glm::vec3 eye = b.center() + glm::vec3(0.3f, 0.2f, 1.0f) * 2.5f * size;
+  const glm::vec3 forward = glm::normalize(b.center() - eye);
+  const glm::vec3 right = glm::normalize(glm::cross(forward, glm::vec3(0, 1, 0)));
+  const glm::vec3 up = glm::cross(right, forward);
+  std::vector<Ray> rays;
+  for (int y = 0; y < side; ++y)
+    for (int x = 0; x < side; ++x) {
+      const float sx = 0.25f * ((x + 0.5f) / side * 2.0f - 1.0f), sy = 0.25f * ((y + 0.5f) / side * 2.0f - 1.0f);
+      Ray r;
+      r.origin = eye;
+      r.direction = glm::normalize(forward + sx * right + sy * up);
+      rays.push_back(r);
+    }
+  return rays;
+}
+
+// Sutherland–Hodgman: the part of the triangle inside the closed box. Independent of the
+// separating-axis test the octree uses; non-empty means the triangle overlaps the box.
+std::vector<glm::dvec3> clip_to_box(const TriangleMesh& mesh, uint32_t triangle, const Bounds& box, double grow) {
+  std::vector<glm::dvec3> poly = {mesh.vertex(triangle, 0), mesh.vertex(triangle, 1), mesh.vertex(triangle, 2)};
+  for (int axis = 0; axis < 3; ++axis)
+    for (double side : {-1.0, 1.0}) {
+      const double plane = side < 0 ? double(box.lo[axis]) - grow : double(box.hi[axis]) + grow;
+      std::vector<glm::dvec3> out;
+      for (size_t i = 0; i < poly.size(); ++i) {
+        const glm::dvec3& cur = poly[i];
+        const glm::dvec3& prev = poly[(i + poly.size() - 1) % poly.size()];
+        const double dc = side * (cur[axis] - plane), dp = side * (prev[axis] - plane);  // <= 0: inside
+        if ((dc <= 0) != (dp <= 0)) out.push_back(prev + (cur - prev) * (dp / (dp - dc)));
+        if (dc <= 0) out.push_back(cur);
+      }
+      poly = std::move(out);
+      if (poly.empty()) return poly;
+    }
+  return poly;
+}
+
+TraversalStats count_closest(const Structure& s, const std::vector<Ray>& rays) {
+  std::vector<Hit> hits(rays.size());
+  TraversalStats stats;
+  intersect_closest(s, rays, hits, &stats);
+  return stats;
+}
+
+}  // namespace
+
+TEST(Octree, LargeTriangleIsHitWhereverBruteForceHitsItAtEveryDepth) {
+  const MeshPtr mesh = large_triangle_mesh();
+  const auto reference = build(mesh, StructureKind::None);
+  for (int depth = 0; depth <= 8; ++depth) {
+    SCOPED_TRACE("max_depth " + std::to_string(depth));
+    const auto octree = build(mesh, StructureKind::Octree, depth, 1);
+    int large_hits = 0;
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 48; ++x) {
+        Ray ray;
+        ray.origin = {(x + 0.5f) / 48.0f, (y + 0.5f) / 48.0f, 2.0f};
+        ray.direction = {0.05f, -0.03f, -1.0f};
+        Hit h;
+        large_hits += reference->closest(ray, h) && h.triangle == 0;
+        expect_same_closest(*reference, *octree, ray);
+        EXPECT_EQ(reference->any(ray), octree->any(ray));
+      }
+    EXPECT_GT(large_hits, 500);  // the grid really crosses the large triangle
+  }
+}
+
+TEST(Octree, EveryLeafHoldsExactlyTheTrianglesThatOverlapIt) {
+  for (const MeshPtr& mesh : {large_triangle_mesh(), shipped("spot_low_resolution.obj")}) {
+    const auto s = build(mesh, StructureKind::Octree, 5, 1);
+    const Octree& octree = octree_of(*s);
+    const std::vector<BoxInfo> boxes = octree.boxes();
+    const float tolerance = 1e-6f * glm::length(octree.root_bounds().extent());
+    int leaves = 0;
+    for (uint32_t node = 0; node < boxes.size(); ++node) {
+      if (!boxes[node].leaf) continue;
+      ++leaves;
+      const Bounds& box = boxes[node].bounds;
+      std::vector<bool> held(mesh->triangle_count(), false);
+      for (uint32_t t : octree.leaf_triangles(node)) {
+        held[t] = true;
+        // No triangle merely near the box (bounds overlap is not enough).
+        EXPECT_FALSE(clip_to_box(*mesh, t, box, tolerance).empty()) << "leaf " << node << " holds triangle " << t;
+      }
+      for (uint32_t t = 0; t < mesh->triangle_count(); ++t) {
+        const Bounds tb = mesh->triangle_bounds(t);
+        if (glm::any(glm::greaterThan(tb.lo, box.hi)) || glm::any(glm::lessThan(tb.hi, box.lo))) continue;
+        if (!clip_to_box(*mesh, t, box, 0.0).empty())
+          EXPECT_TRUE(held[t]) << "leaf " << node << " misses overlapping triangle " << t;
+      }
+    }
+    EXPECT_GT(leaves, 20);
+  }
+}
+
+TEST(Octree, DepthLeafSizeAndEmptyOctantsShapeTheTree) {
+  const MeshPtr bunny = shipped("bunny.obj");
+  const uint32_t n = uint32_t(bunny->triangle_count());
+
+  const auto root_only = build(bunny, StructureKind::Octree, 0, 1);
+  const std::vector<BoxInfo> root = root_only->boxes();
+  ASSERT_EQ(root.size(), 1u);
+  EXPECT_TRUE(root[0].leaf);
+  EXPECT_EQ(root[0].triangle_count, n);
+  const glm::vec3 side = root[0].bounds.extent();
+  EXPECT_FLOAT_EQ(side.x, side.y);
+  EXPECT_FLOAT_EQ(side.y, side.z);
+  EXPECT_TRUE(root[0].bounds.contains(bunny->bounds().lo) && root[0].bounds.contains(bunny->bounds().hi));
+
+  for (int max_depth : {3, 6}) {
+    const int leaf_size = 4;
+    const auto s = build(bunny, StructureKind::Octree, max_depth, leaf_size);
+    const std::vector<BoxInfo> boxes = s->boxes();
+    const auto nodes = octree_of(*s).nodes();
+    int deepest = 0;
+    for (uint32_t i = 0; i < boxes.size(); ++i) {
+      const BoxInfo& b = boxes[i];
+      deepest = std::max(deepest, b.depth);
+      EXPECT_LE(b.depth, max_depth);
+      EXPECT_GT(b.triangle_count, 0u) << "an empty octant was allocated";
+      if (b.leaf && b.depth < max_depth) EXPECT_LE(b.triangle_count, uint32_t(leaf_size));
+      if (!b.leaf) {
+        EXPECT_GT(b.triangle_count, uint32_t(leaf_size));
+        for (int octant = 0; octant < 8; ++octant)
+          if ((nodes[i].child_mask() >> octant) & 1u) {
+            const BoxInfo& child = boxes[nodes[i].child(octant)];
+            EXPECT_EQ(child.depth, b.depth + 1);
+            EXPECT_EQ(child.bounds.lo, octant_bounds(b.bounds, octant).lo);
+            EXPECT_EQ(child.bounds.hi, octant_bounds(b.bounds, octant).hi);
+          }
+      }
+    }
+    EXPECT_EQ(deepest, max_depth);
+  }
+
+  // Two corner triangles: the root gets exactly the two octants that hold them.
+  std::vector<glm::vec3> v;
+  std::vector<glm::uvec3> t;
+  add_corner_triangle(v, t, {0, 0, 0});
+  add_corner_triangle(v, t, {1, 1, 1});
+  const auto corners = build(mesh_of(v, t), StructureKind::Octree, 6, 1);
+  const auto nodes = octree_of(*corners).nodes();
+  ASSERT_EQ(nodes.size(), 3u);
+  EXPECT_EQ(nodes[0].child_mask(), 0x81u);
+  EXPECT_TRUE(nodes[1].leaf() && nodes[2].leaf());
+}
+
+TEST(Octree, BuildIsDeterministic) {
+  const MeshPtr mesh = shipped("bunny_hr.obj");
+  const auto a = build(mesh, StructureKind::Octree, 7, 4);
+  const auto b = build(mesh, StructureKind::Octree, 7, 4);
+  const auto na = octree_of(*a).nodes(), nb = octree_of(*b).nodes();
+  ASSERT_EQ(na.size(), nb.size());
+  for (uint32_t i = 0; i < na.size(); ++i) {
+    ASSERT_EQ(na[i].first, nb[i].first);
+    ASSERT_EQ(na[i].bits, nb[i].bits);
+    if (na[i].leaf()) ASSERT_TRUE(std::ranges::equal(octree_of(*a).leaf_triangles(i), octree_of(*b).leaf_triangles(i)));
+  }
+}
+
+TEST(Octree, EqualsBruteForceOnShippedMeshes) {
+  for (const char* name : {"bunny.obj", "plane_holes.obj"}) {
+    SCOPED_TRACE(name);
+    const MeshPtr mesh = shipped(name);
+    const auto reference = build(mesh, StructureKind::None);
+    const auto octree = build(mesh, StructureKind::Octree);
+    for (const Ray& ray : random_rays(*mesh, 1500, 7)) {
+      expect_same_closest(*reference, *octree, ray);
+      EXPECT_EQ(reference->any(ray), octree->any(ray));
+    }
+  }
+}
+
+TEST(Octree, FlatAndPointLikeMeshesGetAValidRoot) {
+  const MeshPtr flat = mesh_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {{0, 1, 2}, {1, 3, 2}});
+  const MeshPtr point = mesh_of({{2, 3, 4}}, {{0, 0, 0}, {0, 0, 0}});
+  for (const MeshPtr& mesh : {flat, point}) {
+    const auto s = build(mesh, StructureKind::Octree, 4, 1);
+    for (const BoxInfo& b : s->boxes()) EXPECT_FALSE(b.bounds.empty());
+    const Bounds root = octree_of(*s).root_bounds();
+    EXPECT_GT(root.hi.z, root.lo.z);
+  }
+  Ray down;
+  down.origin = {0.6f, 0.7f, 1.0f};
+  down.direction = {0, 0, -1};
+  Hit h;
+  EXPECT_TRUE(build(flat, StructureKind::Octree, 4, 1)->closest(down, h));
+  EXPECT_EQ(h.triangle, 1u);
+}
+
+TEST(Octree, TinyMemoryBudgetThrowsBuildError) {
+  const MeshPtr bunny = shipped("bunny.obj");
+  EXPECT_THROW(build(bunny, StructureKind::Octree, 6, 8, 4096), BuildError);
+  // A budget that holds the root level but not the splits stops inside the build.
+  EXPECT_THROW(build(bunny, StructureKind::Octree, 6, 8, 64 * 1024), BuildError);
+  try {
+    build(bunny, StructureKind::Octree, 6, 8, 4096);
+  } catch (const BuildError& e) {
+    EXPECT_NE(std::string(e.what()).find("memory budget"), std::string::npos);
+  }
+  const auto fits = build(bunny, StructureKind::Octree, 6, 8);
+  EXPECT_GT(fits->memory_bytes(), 0u);
+}
+
+TEST(Octree, DeepTinyLeafBuildOnDragonFitsTheBudgetOrStops) {
+  const MeshPtr dragon = shipped("dragon.obj");
+  try {
+    const auto s = build(dragon, StructureKind::Octree, 16, 1);
+    EXPECT_LE(s->memory_bytes(), BuildSettings{}.memory_budget);
+  } catch (const BuildError& e) {
+    EXPECT_NE(std::string(e.what()).find("memory budget"), std::string::npos);
+  }
+}
+
+TEST(Octree, StoryOfOneRayShowsTheFourStatuses) {
+  std::vector<glm::vec3> v;
+  std::vector<glm::uvec3> t;
+  add_corner_triangle(v, t, {0, 0, 0});
+  add_corner_triangle(v, t, {1, 1, 1});
+  const auto s = build(mesh_of(v, t), StructureKind::Octree, 6, 1);
+  auto story = [&](glm::vec3 origin, glm::vec3 direction) {
+    Ray r;
+    r.origin = origin;
+    r.direction = direction;
+    return s->story(r);
+  };
+  const glm::vec3 down(0, 0, -1);
+
+  const RayStory outside = story({2, 2, 2}, down);
+  EXPECT_EQ(outside.status, RayStatus::MissedRoot);
+  EXPECT_EQ(outside.stats.rays_ignored, 1u);
+  EXPECT_TRUE(outside.nodes.empty());
+
+  // Through the octants x > 0.5, y < 0.5, which hold nothing: only the root is entered.
+  const RayStory empty_space = story({0.75f, 0.25f, 2}, down);
+  EXPECT_EQ(empty_space.status, RayStatus::MissedNodes);
+  EXPECT_EQ(empty_space.stats.rays_ignored, 0u);
+  ASSERT_EQ(empty_space.nodes.size(), 1u);
+  EXPECT_TRUE(empty_space.boxes[0].hit);
+  EXPECT_TRUE(empty_space.triangles.empty());
+
+  // Through the leaf of the lower corner, beside its triangle.
+  const RayStory beside = story({0.1f, 0.1f, 2}, down);
+  EXPECT_EQ(beside.status, RayStatus::MissedTriangles);
+  ASSERT_EQ(beside.triangles.size(), 1u);
+  EXPECT_EQ(beside.triangles[0].triangle, 0u);
+  EXPECT_FALSE(beside.triangles[0].hit);
+
+  // From above the upper corner's octant down to the lower corner's triangle: both leaves are
+  // entered, front to back, and the first one's triangle is tested and missed on the way.
+  const RayStory hit = story({0.9f, 0.9f, 1.5f}, glm::vec3(0.002f, 0.002f, 0.0f) - glm::vec3(0.9f, 0.9f, 1.5f));
+  EXPECT_EQ(hit.status, RayStatus::HitObject);
+  EXPECT_EQ(hit.hit.triangle, 0u);
+  ASSERT_EQ(hit.boxes.size(), 3u);
+  EXPECT_EQ(hit.boxes[1].node, 2u);
+  EXPECT_EQ(hit.boxes[2].node, 1u);
+  EXPECT_TRUE(hit.boxes[1].hit && hit.boxes[2].hit);
+  EXPECT_LT(hit.boxes[1].t_entry, hit.boxes[2].t_entry);
+  ASSERT_EQ(hit.nodes.size(), 3u);
+  EXPECT_EQ(hit.nodes[1].node, 2u);
+  EXPECT_EQ(hit.nodes[2].node, 1u);
+  ASSERT_EQ(hit.triangles.size(), 2u);
+  EXPECT_FALSE(hit.triangles[0].hit);
+  EXPECT_TRUE(hit.triangles[1].hit);
+}
+
+TEST(Octree, TestsFarFewerTrianglesThanAabb) {
+  const MeshPtr bunny = shipped("bunny.obj");
+  const std::vector<Ray> rays = camera_rays(*bunny, 64);
+  const TraversalStats aabb = count_closest(*build(bunny, StructureKind::Aabb), rays);
+  const TraversalStats octree = count_closest(*build(bunny, StructureKind::Octree, 6, 8), rays);
+  const double per_ray_aabb = double(aabb.triangle_tests) / rays.size();
+  const double per_ray_octree = double(octree.triangle_tests) / rays.size();
+  std::printf("bunny.obj camera rays: triangle tests per ray: aabb %.1f, octree %.1f; box tests per ray: octree %.1f\n",
+              per_ray_aabb, per_ray_octree, double(octree.box_tests) / rays.size());
+  EXPECT_GT(aabb.triangle_tests, 0u);
+  EXPECT_LT(per_ray_octree, 0.1 * per_ray_aabb);
+}
