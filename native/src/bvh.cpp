@@ -22,7 +22,7 @@ BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& se
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) bounds[i] = mesh.triangle_bounds(uint32_t(i));
   });
-  return build_binary_bvh(bounds, uint32_t(settings.leaf_size));
+  return build_binary_bvh(bounds, uint32_t(settings.leaf_size), 4);  // leaves are tested in packets of four
 }
 
 Bvh4Node empty_node() {

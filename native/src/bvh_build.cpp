@@ -1,11 +1,17 @@
 #include "raylab/bvh_build.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_group.h>
 
+#include <immintrin.h>
+#include <sys/mman.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <memory>
 
 namespace raylab {
@@ -13,27 +19,54 @@ namespace raylab {
 namespace {
 
 constexpr int kBins = 16;
-constexpr uint32_t kTaskThreshold = 4096;           // smaller subtrees stay in the task that reaches them
-constexpr uint32_t kParallelScanThreshold = 1u << 16;  // larger nodes scan their primitives in parallel
+constexpr uint32_t kTaskThreshold = 4096;              // smaller subtrees stay in the task that reaches them
+constexpr uint32_t kParallelScanThreshold = 1u << 16;  // larger nodes bin their primitives in parallel
 constexpr uint32_t kScanGrain = 1u << 13;
 // Deeper nodes split at the index median, so the depth stays below kMaxSahDepth + log2(n) whatever
 // the input (the traversal stacks rely on it).
 constexpr int kMaxSahDepth = 48;
-constexpr float kTraversalCost = 1.0f;  // one node visit, in units of one primitive test
+constexpr float kTraversalCost = 1.0f;  // one node visit, in units of one leaf block test
 
-struct PrimRef {
-  glm::vec3 lo;
-  uint32_t index;
-  glm::vec3 hi;
-  uint32_t unused;
+// A box in SSE registers (the w lanes are unused). Binning is the builder's inner loop: one min and
+// one max per box instead of six scalar ones.
+struct Box {
+  __m128 lo = _mm_set1_ps(kInfinity);
+  __m128 hi = _mm_set1_ps(-kInfinity);
 
-  glm::vec3 centroid2() const { return lo + hi; }  // twice the centroid: the factor cancels in binning
+  void extend(__m128 p_lo, __m128 p_hi) {
+    lo = _mm_min_ps(lo, p_lo);
+    hi = _mm_max_ps(hi, p_hi);
+  }
+  void extend(const Box& b) { extend(b.lo, b.hi); }
+  Bounds bounds() const {
+    alignas(16) float l[4], h[4];
+    _mm_store_ps(l, lo);
+    _mm_store_ps(h, hi);
+    return {{l[0], l[1], l[2]}, {h[0], h[1], h[2]}};
+  }
+  float area() const { return bounds().surface_area(); }
 };
 
-struct RangeInfo {
-  Bounds bounds;
-  Bounds centroids;  // of centroid2()
+// A primitive's box; the index rides in lo's w lane (cleared before arithmetic: as a float it is a
+// denormal, which would slow every operation on it).
+struct PrimRef {
+  __m128 lo, hi;
 
+  uint32_t index() const { return uint32_t(_mm_extract_epi32(_mm_castps_si128(lo), 3)); }
+  // Twice the centroid: the factor cancels in binning.
+  __m128 centroid2() const { return _mm_add_ps(_mm_blend_ps(lo, _mm_setzero_ps(), 0x8), hi); }
+};
+
+// What a node's build needs to know of its primitives, and what binning hands its children.
+struct RangeInfo {
+  Box bounds;
+  Box centroids;  // of centroid2()
+
+  void extend(const PrimRef& r) {
+    bounds.extend(r.lo, r.hi);
+    const __m128 c = r.centroid2();
+    centroids.extend(c, c);
+  }
   void merge(const RangeInfo& o) {
     bounds.extend(o.bounds);
     centroids.extend(o.centroids);
@@ -41,7 +74,7 @@ struct RangeInfo {
 };
 
 struct Bin {
-  Bounds bounds;
+  RangeInfo info;
   uint32_t count = 0;
 };
 
@@ -51,33 +84,42 @@ struct Bins {
   void merge(const Bins& o) {
     for (int a = 0; a < 3; ++a)
       for (int i = 0; i < kBins; ++i) {
-        bin[a][i].bounds.extend(o.bin[a][i].bounds);
+        bin[a][i].info.merge(o.bin[a][i].info);
         bin[a][i].count += o.bin[a][i].count;
       }
   }
 };
 
-// Maps centroids to bins along the axes with a usable extent. Binning and partitioning both go
-// through bin_of, so a primitive always lands on the side its bin was counted on.
+// Maps centroids to bins along the axes with a usable extent (the others get scale 0: one bin).
+// Binning and partitioning both go through bins_of, so a primitive always lands on the side its
+// bin was counted on.
 struct Binning {
-  glm::vec3 origin;
-  glm::vec3 scale;
+  __m128 origin, scale;
   bool usable[3];
 
-  explicit Binning(const Bounds& centroids) : origin(centroids.lo) {
-    const glm::vec3 extent = centroids.extent();
+  explicit Binning(const Box& centroids) : origin(centroids.lo) {
+    const Bounds c = centroids.bounds();
+    alignas(16) float s[4] = {0, 0, 0, 0};
     for (int a = 0; a < 3; ++a) {
-      scale[a] = float(kBins) / extent[a];
-      usable[a] = extent[a] > 0.0f && std::isfinite(scale[a]);
+      const float extent = c.hi[a] - c.lo[a];
+      const float axis_scale = float(kBins) / extent;
+      usable[a] = extent > 0.0f && std::isfinite(axis_scale);
+      s[a] = usable[a] ? axis_scale : 0.0f;
     }
+    scale = _mm_load_ps(s);
+  }
+  __m128i bins_of(const PrimRef& r) const {
+    const __m128i b = _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(r.centroid2(), origin), scale));
+    return _mm_min_epi32(_mm_max_epi32(b, _mm_setzero_si128()), _mm_set1_epi32(kBins - 1));
   }
   int bin_of(const PrimRef& r, int axis) const {
-    const int b = int((r.centroid2()[axis] - origin[axis]) * scale[axis]);
-    return std::clamp(b, 0, kBins - 1);
+    alignas(16) int32_t b[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(b), bins_of(r));
+    return b[axis];
   }
 };
 
-// Reduces body(begin, end) over a range, in parallel when it is large. Bounds unions and integer
+// Reduces body(begin, end) over a range, in parallel when it is large. Box unions and integer
 // counts are exact in any order, so the result does not depend on the split into tasks.
 template <class Result, class Body>
 Result reduce_range(uint32_t begin, uint32_t end, Body body) {
@@ -94,28 +136,51 @@ Result reduce_range(uint32_t begin, uint32_t end, Body body) {
       });
 }
 
+// A large scratch array on transparent huge pages where the kernel allows it: the builder touches
+// all of it once, and 4 KiB page faults would cost a fifth of the build.
+template <class T>
+struct ScratchArray {
+  static constexpr size_t kHugePage = size_t(2) << 20;
+  T* data = nullptr;
+
+  explicit ScratchArray(size_t n) {
+    const size_t bytes = std::max(kHugePage, (n * sizeof(T) + kHugePage - 1) / kHugePage * kHugePage);
+    data = static_cast<T*>(std::aligned_alloc(kHugePage, bytes));
+    if (!data) throw std::bad_alloc();
+    madvise(data, bytes, MADV_HUGEPAGE);  // advice only: failure just means small pages
+  }
+  ~ScratchArray() { std::free(data); }
+  ScratchArray(const ScratchArray&) = delete;
+  ScratchArray& operator=(const ScratchArray&) = delete;
+  T& operator[](size_t i) { return data[i]; }
+};
+
 class Builder {
  public:
-  Builder(std::vector<PrimRef>& refs, BvhNode* slots, uint32_t max_leaf_size)
-      : refs_(refs), slots_(slots), max_leaf_size_(max_leaf_size) {}
+  Builder(ScratchArray<PrimRef>& refs, ScratchArray<BvhNode>& slots, uint32_t max_leaf_size, uint32_t leaf_block)
+      : refs_(refs), slots_(slots), max_leaf_size_(max_leaf_size), leaf_block_(leaf_block) {}
 
-  // Builds the subtree over refs_[begin, end) with its root in `slot`. A subtree over n primitives
-  // needs at most 2n - 2 descendant slots, which it takes from `first_descendant` on: its children
-  // there, then the left child's descendants, then the right child's. Fixed slots make the tree
-  // independent of task scheduling.
-  void build(uint32_t slot, uint32_t first_descendant, uint32_t begin, uint32_t end, int depth) {
-    const RangeInfo info = reduce_range<RangeInfo>(begin, end, [&](uint32_t b, uint32_t e) {
+  RangeInfo scan(uint32_t begin, uint32_t end) {
+    return reduce_range<RangeInfo>(begin, end, [&](uint32_t b, uint32_t e) {
       RangeInfo r;
-      for (uint32_t i = b; i < e; ++i) {
-        r.bounds.extend(Bounds(refs_[i].lo, refs_[i].hi));
-        r.centroids.extend(refs_[i].centroid2());
-      }
+      for (uint32_t i = b; i < e; ++i) r.extend(refs_[i]);
       return r;
     });
+  }
+
+  // Builds the subtree over refs_[begin, end) (described by `info`) with its root in `slot`. A
+  // subtree over n primitives needs at most 2n - 2 descendant slots, which it takes from
+  // `first_descendant` on: its children there, then the left child's descendants, then the right
+  // child's. Fixed slots make the tree independent of task scheduling.
+  void build(uint32_t slot, uint32_t first_descendant, uint32_t begin, uint32_t end, const RangeInfo& info,
+             int depth) {
+    node_count_.fetch_add(1, std::memory_order_relaxed);
     BvhNode& node = slots_[slot];
-    node.lo = info.bounds.lo;
-    node.hi = info.bounds.hi;
-    const uint32_t mid = split(info, begin, end, depth);
+    const Bounds box = info.bounds.bounds();
+    node.lo = box.lo;
+    node.hi = box.hi;
+    RangeInfo left_info, right_info;
+    const uint32_t mid = split(info, begin, end, depth, left_info, right_info);
     if (mid == begin) {
       node.index = begin;
       node.count = end - begin;
@@ -124,8 +189,10 @@ class Builder {
     node.index = first_descendant;
     node.count = 0;
     const uint32_t left_count = mid - begin;
-    auto left = [&] { build(first_descendant, first_descendant + 2, begin, mid, depth + 1); };
-    auto right = [&] { build(first_descendant + 1, first_descendant + 2 * left_count, mid, end, depth + 1); };
+    auto left = [&] { build(first_descendant, first_descendant + 2, begin, mid, left_info, depth + 1); };
+    auto right = [&] {
+      build(first_descendant + 1, first_descendant + 2 * left_count, mid, end, right_info, depth + 1);
+    };
     if (end - begin >= kTaskThreshold) {
       tbb::task_group group;
       group.run(left);
@@ -137,26 +204,32 @@ class Builder {
     }
   }
 
+  uint32_t node_count() const { return node_count_.load(); }
+
  private:
-  // Partitions refs_[begin, end) and returns the start of the right part, or `begin` for a leaf.
-  uint32_t split(const RangeInfo& info, uint32_t begin, uint32_t end, int depth) {
+  // Partitions refs_[begin, end) and returns the start of the right part (describing both parts),
+  // or `begin` for a leaf.
+  uint32_t split(const RangeInfo& info, uint32_t begin, uint32_t end, int depth, RangeInfo& left_info,
+                 RangeInfo& right_info) {
     const uint32_t n = end - begin;
-    const uint32_t median = begin + n / 2;
     if (n == 1) return begin;
     const Binning binning(info.centroids);
     const bool can_bin = binning.usable[0] || binning.usable[1] || binning.usable[2];
     // Identical centroids (e.g. all triangles the same) or a runaway depth: SAH cannot help.
-    if (!can_bin || depth >= kMaxSahDepth) return n <= max_leaf_size_ ? begin : median;
+    if (!can_bin || depth >= kMaxSahDepth) return n <= max_leaf_size_ ? begin : median(begin, end, left_info, right_info);
 
     const Bins bins = reduce_range<Bins>(begin, end, [&](uint32_t b, uint32_t e) {
       Bins r;
-      for (uint32_t i = b; i < e; ++i)
+      alignas(16) int32_t index[4];
+      for (uint32_t i = b; i < e; ++i) {
+        const PrimRef& ref = refs_[i];
+        _mm_store_si128(reinterpret_cast<__m128i*>(index), binning.bins_of(ref));
         for (int a = 0; a < 3; ++a) {
-          if (!binning.usable[a]) continue;
-          Bin& bin = r.bin[a][binning.bin_of(refs_[i], a)];
-          bin.bounds.extend(Bounds(refs_[i].lo, refs_[i].hi));
+          Bin& bin = r.bin[a][index[a]];
+          bin.info.extend(ref);
           ++bin.count;
         }
+      }
       return r;
     });
 
@@ -166,21 +239,21 @@ class Builder {
       if (!binning.usable[a]) continue;
       float right_area[kBins];
       uint32_t right_count[kBins];
-      Bounds acc;
+      Box acc;
       uint32_t count = 0;
       for (int i = kBins - 1; i > 0; --i) {
-        acc.extend(bins.bin[a][i].bounds);
+        acc.extend(bins.bin[a][i].info.bounds);
         count += bins.bin[a][i].count;
-        right_area[i] = acc.surface_area();
+        right_area[i] = acc.area();
         right_count[i] = count;
       }
-      acc = Bounds();
+      acc = Box();
       count = 0;
       for (int i = 1; i < kBins; ++i) {  // split between bins i - 1 and i
-        acc.extend(bins.bin[a][i - 1].bounds);
+        acc.extend(bins.bin[a][i - 1].info.bounds);
         count += bins.bin[a][i - 1].count;
         if (count == 0 || right_count[i] == 0) continue;
-        const float cost = acc.surface_area() * float(count) + right_area[i] * float(right_count[i]);
+        const float cost = acc.area() * blocks(count) + right_area[i] * blocks(right_count[i]);
         if (cost < best_cost) {
           best_cost = cost;
           best_axis = a;
@@ -188,22 +261,34 @@ class Builder {
         }
       }
     }
-    const float area = info.bounds.surface_area();
+    const float area = info.bounds.area();
     if (n <= max_leaf_size_) {
       const float split_cost = kTraversalCost + best_cost / area;
-      if (best_axis < 0 || !(area > 0.0f) || !(split_cost < float(n))) return begin;
+      if (best_axis < 0 || !(area > 0.0f) || !(split_cost < blocks(n))) return begin;
     }
-    if (best_axis < 0) return median;
-    PrimRef* first = refs_.data() + begin;
-    PrimRef* last = refs_.data() + end;
+    if (best_axis < 0) return median(begin, end, left_info, right_info);
+    for (int i = 0; i < kBins; ++i) (i < best_bin ? left_info : right_info).merge(bins.bin[best_axis][i].info);
+    PrimRef* first = &refs_[begin];
+    PrimRef* last = &refs_[end];
     return begin + uint32_t(std::partition(first, last, [&](const PrimRef& r) {
                               return binning.bin_of(r, best_axis) < best_bin;
                             }) - first);
   }
 
-  std::vector<PrimRef>& refs_;
-  BvhNode* slots_;
+  uint32_t median(uint32_t begin, uint32_t end, RangeInfo& left_info, RangeInfo& right_info) {
+    const uint32_t mid = begin + (end - begin) / 2;
+    left_info = scan(begin, mid);
+    right_info = scan(mid, end);
+    return mid;
+  }
+
+  float blocks(uint32_t n) const { return float((n + leaf_block_ - 1) / leaf_block_); }
+
+  ScratchArray<PrimRef>& refs_;
+  ScratchArray<BvhNode>& slots_;
   uint32_t max_leaf_size_;
+  uint32_t leaf_block_;
+  std::atomic<uint32_t> node_count_{0};
 };
 
 }  // namespace
@@ -212,19 +297,27 @@ size_t binary_bvh_build_bytes(size_t n) {
   return n * (sizeof(PrimRef) + 2 * sizeof(BvhNode) + 2 * sizeof(BvhNode) + sizeof(uint32_t));
 }
 
-BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_leaf_size) {
-  std::vector<PrimRef> refs;
-  refs.reserve(prim_bounds.size());
-  for (size_t i = 0; i < prim_bounds.size(); ++i)
-    if (!prim_bounds[i].empty()) refs.push_back({prim_bounds[i].lo, uint32_t(i), prim_bounds[i].hi, 0});
+BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_leaf_size, uint32_t leaf_block) {
+  uint32_t n = 0;
+  for (const Bounds& b : prim_bounds) n += !b.empty();
   BinaryBvh bvh;
-  if (refs.empty()) return bvh;
-  const uint32_t n = uint32_t(refs.size());
-  // Uninitialised on purpose: only the slots the tree uses are written, and only those are read.
-  std::unique_ptr<BvhNode[]> slots(new BvhNode[2 * size_t(n) - 1]);
-  Builder(refs, slots.get(), std::max(max_leaf_size, 1u)).build(0, 1, 0, n, 0);
+  if (n == 0) return bvh;
+  ScratchArray<PrimRef> refs(n);
+  uint32_t next = 0;
+  for (size_t i = 0; i < prim_bounds.size(); ++i) {
+    const Bounds& b = prim_bounds[i];
+    if (b.empty()) continue;
+    const __m128 lo = _mm_setr_ps(b.lo.x, b.lo.y, b.lo.z, 0.0f);
+    refs[next++] = {_mm_castsi128_ps(_mm_insert_epi32(_mm_castps_si128(lo), int32_t(i), 3)),
+                    _mm_setr_ps(b.hi.x, b.hi.y, b.hi.z, 0.0f)};
+  }
+  // Only the slots the tree uses are written, and only those are read.
+  ScratchArray<BvhNode> slots(2 * size_t(n) - 1);
+  Builder builder(refs, slots, std::max(max_leaf_size, 1u), std::max(leaf_block, 1u));
+  builder.build(0, 1, 0, n, builder.scan(0, n), 0);
 
   // Compact the used slots, depth first, keeping siblings adjacent.
+  bvh.nodes.reserve(builder.node_count());
   bvh.nodes.push_back(slots[0]);
   std::vector<uint32_t> pending{0};
   while (!pending.empty()) {
@@ -238,9 +331,8 @@ BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_lea
     pending.push_back(children + 1);
     pending.push_back(children);
   }
-  bvh.nodes.shrink_to_fit();
   bvh.prims.resize(n);
-  for (uint32_t i = 0; i < n; ++i) bvh.prims[i] = refs[i].index;
+  for (uint32_t i = 0; i < n; ++i) bvh.prims[i] = refs[i].index();
   return bvh;
 }
 
