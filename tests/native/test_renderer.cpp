@@ -8,6 +8,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 using namespace raylab;
@@ -271,6 +272,46 @@ TEST(Renderer, GlassSlabTransmitsMostLightAtNormalIncidence) {
   EXPECT_NEAR(glm::distance(pixel(r, 16, 16), f.settings.background), 0.0f, 1e-5f);
   EXPECT_EQ(r.stats.rays_refraction, 16u * 16u);
   EXPECT_EQ(r.stats.rays_reflection, 16u * 16u);
+}
+
+TEST(Renderer, SunGivesStrengthTimesCosine) {
+  FloorScene f;
+  f.lights[0].type = LightType::Sun;
+  f.lights[0].energy = 3.0f;
+  f.lights[0].matrix_world = glm::mat4(1.0f);  // shines down its -Z: straight onto the floor
+  EXPECT_NEAR(pixel(f.run(), 16, 16).x, 0.8f / glm::pi<float>() * 3.0f, 1e-5f);
+  f.lights[0].matrix_world = glm::rotate(glm::mat4(1.0f), glm::radians(60.0f), glm::vec3(1, 0, 0));
+  EXPECT_NEAR(pixel(f.run(), 16, 16).x, 0.8f / glm::pi<float>() * 1.5f, 1e-5f);
+}
+
+// Shadow on / shadow off, per pixel: 0 in the umbra, 1 in full light, in between only in a penumbra.
+std::vector<float> shadow_ratios(FloorScene& f) {
+  f.add_occluder();
+  f.settings.shadows = true;
+  const RenderResult on = f.run();
+  f.settings.shadows = false;
+  const RenderResult off = f.run();
+  std::vector<float> ratios;
+  for (int x = 0; x < 32; ++x)
+    if (off.instance[16 * 32 + x] == 0) ratios.push_back(pixel(on, x, 16).x / pixel(off, x, 16).x);
+  return ratios;
+}
+
+TEST(Renderer, AreaLightCastsSoftShadowsAndAPointLightHardOnes) {
+  const auto penumbra = [](const std::vector<float>& ratios) {
+    return std::count_if(ratios.begin(), ratios.end(), [](float r) { return r > 0.02f && r < 0.98f; });
+  };
+  FloorScene point;
+  const std::vector<float> hard = shadow_ratios(point);
+  EXPECT_EQ(penumbra(hard), 0);
+  EXPECT_GT(std::count(hard.begin(), hard.end(), 0.0f), 0);
+  FloorScene area;
+  area.lights[0].type = LightType::Area;
+  area.lights[0].size = 0.6f;
+  area.lights[0].samples = 4;
+  const std::vector<float> soft = shadow_ratios(area);
+  // The umbra lies under the occluder, hidden from this camera; the penumbra around it is seen.
+  EXPECT_GE(penumbra(soft), 4);
 }
 
 TEST(Renderer, SpotLightLightsOnlyInsideItsCone) {
