@@ -9,6 +9,6 @@ import raylab  # noqa: E402
 from raylab.blender import default_scene  # noqa: E402
 
 raylab.register()
-default_scene.build_default_scene(bpy.context.scene, resolution=(480, 360))
+default_scene.build_default_scene(bpy.context.scene, resolution=(880, 660))
 bpy.context.scene.render.engine = 'RAYLAB'
 bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(sys.argv[sys.argv.index("--") + 1]))

@@ -50,7 +50,9 @@ def test_render_window_shows_the_raylab_statistics(f12_render):
     report, image_region = f12_render
     assert any(line.startswith("raylab bvh | build") for line in report["stats_sent"]), report["stats_sent"]
     assert report["last_render"]["structure"] == "bvh"
-    # Blender draws the render's statistics as light text on a dark band across the top of the image.
-    band = image_region[:24].mean(axis=2)
-    text = band > 170
+    # Blender draws the render's statistics as light text on a dark band across the top of the image:
+    # its own part ("Frame:1 | Time:... | Mem:... (Peak ...)") ends near x = 310; raylab's line follows it.
+    text = image_region[:24].mean(axis=2) > 170
+    columns = np.flatnonzero(text.any(axis=0))
     assert text.sum() > 100 and text.mean() < 0.5, f"text pixels in the statistics band: {int(text.sum())}"
+    assert columns.max() > 600, f"the statistics text ends at x = {columns.max()}"

@@ -2,10 +2,11 @@
 (not a test: it prints figures, asserts nothing).
 
     xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup START.blend \
-        --python tests/gui/viewport_measure.py -- MESH.obj [STRUCTURE]
+        --python tests/gui/viewport_measure.py -- MESH.obj [STRUCTURE] [--bounds]
 
 Per depth 0..8: the structure build, the wireframe arrays, the GPU batch upload, the first redraw
-(which builds both, as a slider drag does) and the redraw of the cached batch.
+(which builds both, as a slider drag does) and the redraw of the cached batch. --bounds draws
+the mesh as its bounds, so that the redraw times are mostly the boxes'.
 """
 import os
 import sys
@@ -21,7 +22,7 @@ from raylab.blender import overlay, structure_cache  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 MESH = ARGS[0]
-STRUCTURE = ARGS[1] if len(ARGS) > 1 else "octree"
+STRUCTURE = ARGS[1] if len(ARGS) > 1 and not ARGS[1].startswith("--") else "octree"
 
 
 def view3d():
@@ -51,18 +52,20 @@ def measure():
     window, area, region = view3d()
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.view3d.view_selected()
+    if "--bounds" in ARGS:
+        obj.display_type = 'BOUNDS'  # software GL spends seconds on the mesh: leave the boxes' own cost
     depsgraph = bpy.context.evaluated_depsgraph_get()
     triangles = len(structure_cache.read_mesh(obj, depsgraph)[1])
     print(f"\n{os.path.basename(MESH)}: {triangles} triangles, structure {STRUCTURE}, leaf size 8")
     print("depth  boxes   build_ms  arrays_ms  upload_ms  first_redraw_ms  redraw_ms")
     settings.show = False
-    empty = redraw_seconds(5)
+    empty = redraw_seconds(3)
     settings.show = True
     for depth in range(9):
         settings.max_depth = depth
         # What a slider step costs inside the draw callback: structure + arrays + upload + draw.
         first = redraw_seconds(1)
-        redraw = redraw_seconds(5)
+        redraw = redraw_seconds(3)
         # The parts, measured apart on a fresh cache.
         structure_cache.clear()
         start = time.perf_counter()

@@ -75,8 +75,11 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
             self.update_stats("", f"raylab {props.structure}: cancelled")
             return
         scene.original["raylab_last_render"] = id_property_stats(result.stats, props.super_sampling)
-        # The info text is what Blender shows in the render window and prints in background renders.
-        self.update_stats("", stats_line(result.stats))
+        line = stats_line(result.stats)
+        # The info text is printed by background renders but cleared from the render window when the
+        # render ends; the result's message (error_set) is what the window keeps showing after it.
+        self.update_stats("", line)
+        self.error_set(line)
 
     def _progress(self, fraction):
         self.update_progress(fraction)

@@ -1,0 +1,173 @@
+"""Runs inside a real Blender window (xvfb-run): opens levels one after the other, lets the overlays
+draw and takes window screenshots.
+
+    xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup START.blend \
+        --python tests/gui/levels_shots.py -- OUT_DIR LEVEL_ID [LEVEL_ID ...]
+
+For every level: OUT_DIR/level_ID.png (the level as it opens, with the Levels panel in the sidebar),
+level_ID_boxes_off.png (the same view with the structure hidden) and, for levels with the probe,
+level_ID_probe_off.png (the probe off too). OUT_DIR/levels_shots.json holds, per level, the 3D
+viewport's and the sidebar's rectangles in the window, the level's boxes computed with raylab from
+the level mesh and projected with bpy_extras.view3d_utils.location_3d_to_region_2d, and the probe's
+status; or "error".
+"""
+import json
+import os
+import sys
+import traceback
+
+import bpy
+import numpy as np
+from bpy_extras.view3d_utils import location_3d_to_region_2d
+from mathutils import Vector
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+import raylab  # noqa: E402
+from raylab.blender import levels, probe  # noqa: E402
+
+ARGS = sys.argv[sys.argv.index("--") + 1:]
+OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
+os.makedirs(OUT_DIR, exist_ok=True)
+report = {"levels": {}}
+BOX_EDGES = [(0, 1), (1, 3), (3, 2), (2, 0), (4, 5), (5, 7), (7, 6), (6, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+
+
+def view3d():
+    window = bpy.context.window_manager.windows[0]
+    area = max((a for a in window.screen.areas if a.type == 'VIEW_3D'), key=lambda a: a.width * a.height)
+    region = next(r for r in area.regions if r.type == 'WINDOW')
+    sidebar = next(r for r in area.regions if r.type == 'UI')
+    return window, area, region, sidebar
+
+
+def rect(region):
+    return dict(x=region.x, y=region.y, width=region.width, height=region.height)
+
+
+def show_sidebar():
+    _, area, _, sidebar = view3d()
+    space = area.spaces.active
+    space.show_region_ui = True
+    space.show_gizmo = False
+    area.tag_redraw()
+
+
+def click_raylab_tab():
+    """Blender 3.4 has no API for the sidebar's active tab: click it (needs --enable-event-simulate).
+    The tabs run down the sidebar's right edge: Tool, View, then raylab."""
+    window, area, _, sidebar = view3d()
+    x = sidebar.x + sidebar.width - 13
+    y = sidebar.y + sidebar.height - 122
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    window.event_simulate(type='LEFTMOUSE', value='PRESS', x=x, y=y)
+    window.event_simulate(type='LEFTMOUSE', value='RELEASE', x=x, y=y)
+    # Park the pointer over the empty viewport so no tooltip or highlight lands in the pictures.
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=sidebar.y + 40)
+    area.tag_redraw()
+
+
+def screenshot(name):
+    window, area, region, _ = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.screen.screenshot(filepath=os.path.join(OUT_DIR, name))
+
+
+def level_boxes(scene):
+    """The boxes the overlay should draw, computed here from the level mesh with raylab itself:
+    (B, 8, 3) world corners. AABB is the world box of the moved vertices; octree and BVH boxes are
+    built in object space and carried by matrix_world, with the depth / leaves filters applied."""
+    settings = scene.raylab
+    obj = levels.level_mesh_object(scene)
+    mesh = obj.data
+    vertices = np.empty(3 * len(mesh.vertices), np.float32)
+    mesh.vertices.foreach_get("co", vertices)
+    vertices = vertices.reshape(-1, 3)
+    matrix = np.array(obj.matrix_world)
+    world = vertices @ matrix[:3, :3].T + matrix[:3, 3]
+    if settings.structure == "aabb":
+        lo, hi, keep, matrix = world.min(axis=0)[None], world.max(axis=0)[None], np.array([True]), np.identity(4)
+    else:
+        mesh.calc_loop_triangles()
+        triangles = np.empty(3 * len(mesh.loop_triangles), np.int32)
+        mesh.loop_triangles.foreach_get("vertices", triangles)
+        structure = raylab.build(vertices, triangles.reshape(-1, 3).astype(np.uint32), structure=settings.structure,
+                                 max_depth=settings.max_depth, leaf_size=settings.leaf_size)
+        boxes = structure.boxes()
+        lo, hi = boxes["lo"], boxes["hi"]
+        keep = (boxes["depth"] >= settings.depth_min) & (boxes["depth"] <= settings.depth_max)
+        if settings.leaves_only:
+            keep &= boxes["leaf"]
+    corners = np.stack([np.where([(i >> 2) & 1, (i >> 1) & 1, i & 1], hi[keep], lo[keep]) for i in range(8)], 1)
+    return corners @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def describe(level_id):
+    window, area, region, sidebar = view3d()
+    scene = bpy.context.scene
+    rv3d = area.spaces.active.region_3d
+    segments = []
+    for box in level_boxes(scene):
+        projected = [location_3d_to_region_2d(region, rv3d, Vector(c)) for c in box]
+        segments += [((projected[a].x, projected[a].y), (projected[b].x, projected[b].y))
+                     for a, b in BOX_EDGES if projected[a] is not None and projected[b] is not None]
+    entry = dict(window_height=window.height, region=rect(region), sidebar=rect(sidebar),
+                 structure=scene.raylab.structure, segments=segments, probe=scene.raylab.probe_enabled,
+                 title=levels.find_level(level_id).title)
+    if scene.raylab.probe_enabled:
+        result = probe.evaluate_probe(scene)
+        entry.update(status=result["status"], status_text=list(probe.status_text(scene)))
+    report["levels"][level_id] = entry
+
+
+def steps_for(level_id):
+    """Each step runs in its own timer callback, so the window redraws in between."""
+
+    def open_level():
+        levels.open_level(bpy.context, level_id)
+        bpy.context.scene.raylab.spin = False  # a still picture: the boxes must not move between shots
+        show_sidebar()
+
+    def shoot_level():
+        describe(level_id)
+        screenshot(f"level_{level_id}.png")
+        bpy.context.scene.raylab.show = False
+
+    def shoot_boxes_off():
+        screenshot(f"level_{level_id}_boxes_off.png")
+        bpy.context.scene.raylab.probe_enabled = False
+
+    def shoot_probe_off():
+        screenshot(f"level_{level_id}_probe_off.png")
+
+    steps = [open_level, shoot_level, shoot_boxes_off]
+    return steps + [shoot_probe_off] if levels.find_level(level_id).settings["raylab"].get("probe_enabled") else steps
+
+
+STEPS = [step for level_id in LEVEL_IDS for step in steps_for(level_id)]
+STEPS.insert(1, click_raylab_tab)  # once: the sidebar keeps its tab from level to level
+
+
+def finish():
+    with open(os.path.join(OUT_DIR, "levels_shots.json"), "w") as f:
+        json.dump(report, f)
+    bpy.ops.wm.quit_blender()
+
+
+def run_steps():
+    try:
+        STEPS.pop(0)()
+        if STEPS:
+            return 1.5
+    except Exception:
+        report["error"] = traceback.format_exc()
+    finish()
+    return None
+
+
+try:
+    raylab.register()
+    bpy.app.timers.register(run_steps, first_interval=2.0)
+except Exception:
+    report["error"] = traceback.format_exc()
+    finish()
