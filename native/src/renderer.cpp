@@ -32,17 +32,17 @@ void require(bool ok, const std::string& what) {
 }
 
 // splitmix64: a per-pixel stream, so that a pixel's samples do not depend on the thread or tile
-// order and every structure renders the same image bit for bit.
+// order and every structure renders the same image bit for bit. The seed is the mixed pixel index:
+// seeding with the index itself would make neighbours' streams the same stream shifted by one.
 struct PixelRandom {
   uint64_t state;
-  explicit PixelRandom(uint64_t pixel) : state(pixel * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull) {}
-  float next() {
-    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+  explicit PixelRandom(uint64_t pixel) : state(mix(pixel)) {}
+  static uint64_t mix(uint64_t z) {
     z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return float(z >> 40) * 0x1p-24f;  // [0, 1)
+    return z ^ (z >> 31);
   }
+  float next() { return float(mix(state += 0x9E3779B97F4A7C15ull) >> 40) * 0x1p-24f; }  // [0, 1)
 };
 
 // Blender's spot cone (Cycles' spot_attenuation): zero outside the half angle, a smoothstep over the
