@@ -8,7 +8,6 @@
 #include "raylab/renderer.h"
 
 #include <pybind11/numpy.h>
-#include <pybind11/stl.h>
 
 #include <chrono>
 #include <cmath>
