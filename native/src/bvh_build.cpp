@@ -74,7 +74,7 @@ struct RangeInfo {
 };
 
 struct Bin {
-  RangeInfo info;
+  Box bounds;
   uint32_t count = 0;
 };
 
@@ -84,7 +84,7 @@ struct Bins {
   void merge(const Bins& o) {
     for (int a = 0; a < 3; ++a)
       for (int i = 0; i < kBins; ++i) {
-        bin[a][i].info.merge(o.bin[a][i].info);
+        bin[a][i].bounds.extend(o.bin[a][i].bounds);
         bin[a][i].count += o.bin[a][i].count;
       }
   }
@@ -226,7 +226,7 @@ class Builder {
         _mm_store_si128(reinterpret_cast<__m128i*>(index), binning.bins_of(ref));
         for (int a = 0; a < 3; ++a) {
           Bin& bin = r.bin[a][index[a]];
-          bin.info.extend(ref);
+          bin.bounds.extend(ref.lo, ref.hi);
           ++bin.count;
         }
       }
@@ -242,7 +242,7 @@ class Builder {
       Box acc;
       uint32_t count = 0;
       for (int i = kBins - 1; i > 0; --i) {
-        acc.extend(bins.bin[a][i].info.bounds);
+        acc.extend(bins.bin[a][i].bounds);
         count += bins.bin[a][i].count;
         right_area[i] = acc.area();
         right_count[i] = count;
@@ -250,7 +250,7 @@ class Builder {
       acc = Box();
       count = 0;
       for (int i = 1; i < kBins; ++i) {  // split between bins i - 1 and i
-        acc.extend(bins.bin[a][i - 1].info.bounds);
+        acc.extend(bins.bin[a][i - 1].bounds);
         count += bins.bin[a][i - 1].count;
         if (count == 0 || right_count[i] == 0) continue;
         const float cost = acc.area() * blocks(count) + right_area[i] * blocks(right_count[i]);
@@ -267,12 +267,26 @@ class Builder {
       if (best_axis < 0 || !(area > 0.0f) || !(split_cost < blocks(n))) return begin;
     }
     if (best_axis < 0) return median(begin, end, left_info, right_info);
-    for (int i = 0; i < kBins; ++i) (i < best_bin ? left_info : right_info).merge(bins.bin[best_axis][i].info);
-    PrimRef* first = &refs_[begin];
-    PrimRef* last = &refs_[end];
-    return begin + uint32_t(std::partition(first, last, [&](const PrimRef& r) {
-                              return binning.bin_of(r, best_axis) < best_bin;
-                            }) - first);
+    for (int i = 0; i < kBins; ++i) (i < best_bin ? left_info : right_info).bounds.extend(bins.bin[best_axis][i].bounds);
+    return partition(binning, best_axis, best_bin, begin, end, left_info.centroids, right_info.centroids);
+  }
+
+  // Hoare partition by bin that also gathers each side's centroid bounds on the way.
+  uint32_t partition(const Binning& binning, int axis, int split_bin, uint32_t begin, uint32_t end, Box& left_centroids,
+                     Box& right_centroids) {
+    uint32_t i = begin, j = end;
+    for (;;) {
+      while (i < j && binning.bin_of(refs_[i], axis) < split_bin) {
+        const __m128 c = refs_[i++].centroid2();
+        left_centroids.extend(c, c);
+      }
+      while (i < j && binning.bin_of(refs_[j - 1], axis) >= split_bin) {
+        const __m128 c = refs_[--j].centroid2();
+        right_centroids.extend(c, c);
+      }
+      if (i >= j) return i;
+      std::swap(refs_[i], refs_[j - 1]);
+    }
   }
 
   uint32_t median(uint32_t begin, uint32_t end, RangeInfo& left_info, RangeInfo& right_info) {
