@@ -203,7 +203,7 @@ def probe_result(scene, depsgraph=None):
                     f"boxes tested {public['boxes_tested']}, nodes visited {public['nodes_visited']}"]
             fan_drawing = None
             if fan[0] is not None:
-                fan_drawing, fan_counts = _trace_fan(traced_fan(targets, entries, fan), fan, settings.probe_length)
+                fan_drawing, fan_counts = _trace_fan(_traced_fan(targets, entries, fan), fan, settings.probe_length)
                 text.append("fan: " + ", ".join(f"{fan_counts[s]} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
             length = nearest[0] if nearest is not None else settings.probe_length
             result = ProbeResult(key, public, text + errors,
@@ -212,7 +212,7 @@ def probe_result(scene, depsgraph=None):
     return result
 
 
-def traced_fan(targets, entries, fan):
+def _traced_fan(targets, entries, fan):
     return [_Traced(o, e, fan[0], fan[1]) for o, e in zip(targets, entries) if e.structure is not None]
 
 

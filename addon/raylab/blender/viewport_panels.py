@@ -77,12 +77,12 @@ class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
         if settings.probe_enabled:
             box = layout.box()
             for line in probe.status_text(context.scene):
-                box.label(text=line)
+                for part in line.split(", "):  # the sidebar is narrow: one count per row
+                    box.label(text=part)
 
 
 class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
     bl_label = "Last render"
-    bl_options = {'DEFAULT_CLOSED'}
 
     FIELDS = (("structure", "Structure"), ("rays_primary", "Primary rays"), ("rays_shadow", "Shadow rays"),
               ("rays_ignored", "Rays ignored"), ("box_tests", "Box tests"), ("triangle_tests", "Triangles tested"),
