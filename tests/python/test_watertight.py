@@ -16,7 +16,7 @@ TARGETS_PER_KIND = 4000  # per interior point: vertices, edge midpoints, random 
 INTERIOR_POINTS = 3
 # Brute force and `aabb` test every triangle per ray: they trace an evenly spread subset of the rays
 # within this many triangle tests.
-SLOW_STRUCTURE_TESTS = 100_000_000
+SLOW_STRUCTURE_TESTS = 50_000_000
 
 
 def crossings(structure, origin, direction):

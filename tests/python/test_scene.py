@@ -1,0 +1,145 @@
+"""raylab.Scene: instances of shared meshes under 4x4 row-major transforms, world-space hits with the
+instance that was hit, changes that need a commit(), and clear errors for bad ids and matrices."""
+import numpy as np
+import pytest
+
+import raylab
+import rays
+
+
+def translate(x, y=0.0, z=0.0, scale=1.0):
+    m = np.diag([scale, scale, scale, 1.0])
+    m[:3, 3] = (x, y, z)  # row-major: the translation is the last column
+    return m
+
+
+def rotate_z(degrees):
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    m = np.eye(4)
+    m[:2, :2] = [[c, -s], [s, c]]
+    return m
+
+
+@pytest.fixture
+def two_spheres(sphere):
+    """Instance 0: the unit sphere at x = -3; instance 1: the same mesh, twice as large, at x = +3."""
+    def make(structure):
+        scene = raylab.Scene(structure=structure)
+        m = scene.add_mesh(*sphere)
+        assert scene.add_instance(m, translate(-3), material=0) == 0
+        assert scene.add_instance(m, translate(3, scale=2), material=1) == 1
+        scene.commit()
+        return scene
+    return make
+
+
+RAYS = (np.array([[-3, 0, -10], [3, 0, -10], [0, 0, -10]], np.float32), np.array([0, 0, 1], np.float32))
+
+
+@pytest.mark.parametrize("structure", raylab.STRUCTURES)
+def test_hits_name_the_instance_and_use_world_distances(two_spheres, structure):
+    scene = two_spheres(structure)
+    h = scene.intersect(*RAYS, count=True)
+    assert list(h.hit) == [True, True, False]
+    assert list(h.instance) == [0, 1, -1]
+    assert h.t[0] == pytest.approx(9.0, rel=1e-3) and h.t[1] == pytest.approx(8.0, rel=1e-3)
+    assert h.stats["rays"] == 3
+    assert list(scene.occluded(*RAYS).hit) == [True, True, False]
+    assert list(scene.occluded(*RAYS, tmax=8.5).hit) == [False, True, False]
+    assert (scene.mesh_count, scene.instance_count) == (1, 2)
+    lo, hi = scene.bounds()
+    assert np.allclose(lo, [-4, -2, -2], atol=1e-5) and np.allclose(hi, [5, 2, 2], atol=1e-5)
+
+
+@pytest.mark.parametrize("structure", raylab.STRUCTURES)
+def test_an_instance_hits_what_its_transformed_mesh_hits(sphere, structure):
+    vertices, triangles = sphere
+    matrix = translate(0.5, -0.25, 1.0, scale=1.5) @ rotate_z(30)
+    scene = raylab.Scene(structure=structure)
+    scene.add_instance(scene.add_mesh(vertices, triangles), matrix)
+    scene.commit()
+    world = (np.c_[vertices, np.ones(len(vertices))] @ matrix.T)[:, :3].astype(np.float32)
+    o, d = rays.camera_rays(world, 64)
+    expected = raylab.build(world, triangles, structure=structure).intersect(o, d)
+    h = scene.intersect(o, d)
+    # Rays moved into object space round differently: only silhouette rays may change their answer.
+    assert (h.hit != expected.hit).sum() <= 3
+    both = h.hit & expected.hit
+    assert np.allclose(h.t[both], expected.t[both], rtol=1e-4)
+    assert (h.instance[h.hit] == 0).all()
+
+
+@pytest.mark.parametrize("structure", raylab.STRUCTURES)
+def test_moving_an_instance_needs_a_commit_and_moves_its_hits(two_spheres, structure):
+    scene = two_spheres(structure)
+    scene.set_transform(0, translate(10))
+    with pytest.raises(RuntimeError, match="commit"):
+        scene.intersect(*RAYS)
+    scene.commit()
+    assert list(scene.intersect(*RAYS).hit) == [False, True, False]
+
+
+@pytest.mark.parametrize("structure", raylab.STRUCTURES)
+def test_a_replaced_mesh_changes_every_instance(two_spheres, sphere, structure):
+    scene = two_spheres(structure)
+    scene.replace_mesh(0, sphere[0] * 0.5, sphere[1])
+    scene.commit()
+    h = scene.intersect(*RAYS)
+    assert h.t[0] == pytest.approx(9.5, rel=1e-3) and h.t[1] == pytest.approx(9.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("structure", ["octree", "bvh"])
+def test_instances_share_their_mesh_structure(sphere, structure):
+    def memory(instances):
+        scene = raylab.Scene(structure=structure)
+        m = scene.add_mesh(*sphere)
+        for i in range(instances):
+            scene.add_instance(m, translate(3 * i))
+        scene.commit()
+        return scene.memory_bytes
+    one_structure = raylab.build(*sphere, structure=structure).memory_bytes
+    assert memory(1) >= one_structure
+    assert memory(10) - memory(1) < one_structure
+
+
+BAD_SCENE_CALLS = {
+    "unknown mesh": (lambda s: s.add_instance(5, np.eye(4)), "unknown mesh id 5"),
+    "negative mesh": (lambda s: s.add_instance(-1, np.eye(4)), "unknown mesh id -1"),
+    "unknown instance": (lambda s: s.set_transform(3, np.eye(4)), "unknown instance id 3"),
+    "matrix shape": (lambda s: s.add_instance(0, np.eye(3)), "(4, 4)"),
+    "singular matrix": (lambda s: s.add_instance(0, np.diag([1.0, 0.0, 1.0, 1.0])), "singular"),
+    "NaN matrix": (lambda s: s.add_instance(0, np.full((4, 4), np.nan)), "NaN"),
+    "negative material": (lambda s: s.add_instance(0, np.eye(4), material=-2), "material"),
+    "bad mesh": (lambda s: s.add_mesh(np.zeros((3, 3)), np.array([[0, 1, 7]])), "triangle 0 refers to vertex 7"),
+    "replace unknown mesh": (lambda s: s.replace_mesh(2, np.zeros((3, 3)), np.array([[0, 1, 2]])), "unknown mesh id 2"),
+    "zero direction": (lambda s: s.intersect([0, 0, 0], [0, 0, 0]), "zero length"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_SCENE_CALLS, ids=list(BAD_SCENE_CALLS))
+def test_bad_scene_calls_raise_value_errors(sphere, case):
+    scene = raylab.Scene()
+    scene.add_mesh(*sphere)
+    scene.commit()
+    call, message = BAD_SCENE_CALLS[case]
+    with pytest.raises(ValueError) as error:
+        call(scene)
+    assert message in str(error.value)
+
+
+def test_bad_scene_settings_raise_value_errors():
+    with pytest.raises(ValueError, match="unknown structure"):
+        raylab.Scene(structure="grid")
+    with pytest.raises(ValueError, match="leaf_size"):
+        raylab.Scene(leaf_size=0)
+    with pytest.raises(ValueError, match="max_depth"):
+        raylab.Scene().set_settings(structure="octree", max_depth=-3)
+
+
+def test_new_settings_rebuild_the_structures(two_spheres):
+    scene = two_spheres("bvh")
+    expected = scene.intersect(*RAYS)
+    scene.set_settings(structure="octree", max_depth=3)
+    scene.commit()
+    h = scene.intersect(*RAYS, count=True)
+    assert np.array_equal(h.triangle, expected.triangle) and np.array_equal(h.instance, expected.instance)
