@@ -38,12 +38,14 @@ Bvh4Node empty_node() {
 
 // Collapses a binary BVH into a 4-wide one: each wide node takes the binary node's children and
 // keeps opening its largest inner child (by surface area, the likeliest to be entered) until it has
-// four.
+// four. Leaves only get their packet range here; fill_packets writes them afterwards, in parallel.
 class Collapser {
  public:
-  Collapser(const BinaryBvh& binary, const TriangleMesh& mesh, std::vector<Bvh4Node>& nodes,
-            std::vector<TrianglePacket>& packets, std::vector<uint32_t>& leaf_packets)
-      : binary_(binary), mesh_(mesh), nodes_(nodes), packets_(packets), leaf_packets_(leaf_packets) {}
+  struct Leaf {
+    uint32_t first_prim, count, first_packet;
+  };
+
+  Collapser(const BinaryBvh& binary, std::vector<Bvh4Node>& nodes) : binary_(binary), nodes_(nodes) {}
 
   uint32_t collapse(uint32_t b) {
     uint32_t kids[4];
@@ -89,32 +91,39 @@ class Collapser {
     return w;
   }
 
+  const std::vector<Leaf>& leaves() const { return leaves_; }
+  uint32_t packet_count() const { return packet_count_; }
+
  private:
   uint32_t add_leaf(const BvhNode& leaf) {
-    const uint32_t first = uint32_t(packets_.size());
-    leaf_packets_.push_back(first);
-    for (uint32_t p = 0; p < leaf.count; p += 4) {
-      TrianglePacket packet;
-      for (uint32_t lane = 0; lane < 4; ++lane) {
-        const bool real = p + lane < leaf.count;
-        const uint32_t triangle = binary_.prims[leaf.index + (real ? p + lane : p)];
-        packet.triangle[lane] = real ? triangle : kInvalidIndex;
-        for (int c = 0; c < 3; ++c) {
-          const glm::vec3 v = mesh_.vertex(triangle, c);
-          for (int a = 0; a < 3; ++a) packet.p[c][a][lane] = v[a];
-        }
-      }
-      packets_.push_back(packet);
-    }
+    const uint32_t first = packet_count_;
+    leaves_.push_back({leaf.index, leaf.count, first});
+    packet_count_ += (leaf.count + 3) / 4;
     return first;
   }
 
   const BinaryBvh& binary_;
-  const TriangleMesh& mesh_;
   std::vector<Bvh4Node>& nodes_;
-  std::vector<TrianglePacket>& packets_;
-  std::vector<uint32_t>& leaf_packets_;
+  std::vector<Leaf> leaves_;
+  uint32_t packet_count_ = 0;
 };
+
+// Copies each leaf's triangles into its packets; unused lanes repeat the packet's first triangle.
+void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Collapser::Leaf& leaf,
+                  TrianglePacket* packets) {
+  for (uint32_t p = 0; p < leaf.count; p += 4) {
+    TrianglePacket& packet = packets[leaf.first_packet + p / 4];
+    for (uint32_t lane = 0; lane < 4; ++lane) {
+      const bool real = p + lane < leaf.count;
+      const uint32_t triangle = binary.prims[leaf.first_prim + (real ? p + lane : p)];
+      packet.triangle[lane] = real ? triangle : kInvalidIndex;
+      for (int c = 0; c < 3; ++c) {
+        const glm::vec3 v = mesh.vertex(triangle, c);
+        for (int a = 0; a < 3; ++a) packet.p[c][a][lane] = v[a];
+      }
+    }
+  }
+}
 
 }  // namespace
 
@@ -122,12 +131,18 @@ Bvh::Bvh(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std::move(
   const BinaryBvh binary = build_over_triangles(*mesh_, settings_);
   if (binary.nodes.empty()) return;
   root_bounds_ = binary.nodes[0].bounds();
-  nodes_.reserve(binary.nodes.size() / 3 + 1);
-  packets_.reserve(binary.prims.size() / 2 + 1);
-  Collapser(binary, *mesh_, nodes_, packets_, leaf_packets_).collapse(0);
+  nodes_.reserve(binary.nodes.size() / 2 + 1);
+  Collapser collapser(binary, nodes_);
+  collapser.collapse(0);
   nodes_.shrink_to_fit();
-  packets_.shrink_to_fit();
-  leaf_packets_.shrink_to_fit();
+  const std::vector<Collapser::Leaf>& leaves = collapser.leaves();
+  packet_count_ = collapser.packet_count();
+  packets_ = make_huge_array<TrianglePacket>(packet_count_);  // every packet is written below
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) fill_packets(*mesh_, binary, leaves[i], packets_.get());
+  });
+  leaf_packets_.resize(leaves.size());
+  for (size_t i = 0; i < leaves.size(); ++i) leaf_packets_[i] = leaves[i].first_packet;
 }
 
 std::vector<BoxInfo> Bvh::boxes() const {
@@ -155,7 +170,7 @@ std::vector<BoxInfo> Bvh::boxes() const {
 }
 
 size_t Bvh::memory_bytes() const {
-  return nodes_.capacity() * sizeof(Bvh4Node) + packets_.capacity() * sizeof(TrianglePacket) +
+  return nodes_.capacity() * sizeof(Bvh4Node) + packet_count_ * sizeof(TrianglePacket) +
          leaf_packets_.capacity() * sizeof(uint32_t);
 }
 

@@ -136,28 +136,9 @@ Result reduce_range(uint32_t begin, uint32_t end, Body body) {
       });
 }
 
-// A large scratch array on transparent huge pages where the kernel allows it: the builder touches
-// all of it once, and 4 KiB page faults would cost a fifth of the build.
-template <class T>
-struct ScratchArray {
-  static constexpr size_t kHugePage = size_t(2) << 20;
-  T* data = nullptr;
-
-  explicit ScratchArray(size_t n) {
-    const size_t bytes = std::max(kHugePage, (n * sizeof(T) + kHugePage - 1) / kHugePage * kHugePage);
-    data = static_cast<T*>(std::aligned_alloc(kHugePage, bytes));
-    if (!data) throw std::bad_alloc();
-    madvise(data, bytes, MADV_HUGEPAGE);  // advice only: failure just means small pages
-  }
-  ~ScratchArray() { std::free(data); }
-  ScratchArray(const ScratchArray&) = delete;
-  ScratchArray& operator=(const ScratchArray&) = delete;
-  T& operator[](size_t i) { return data[i]; }
-};
-
 class Builder {
  public:
-  Builder(ScratchArray<PrimRef>& refs, ScratchArray<BvhNode>& slots, uint32_t max_leaf_size, uint32_t leaf_block)
+  Builder(HugeArray<PrimRef>& refs, HugeArray<BvhNode>& slots, uint32_t max_leaf_size, uint32_t leaf_block)
       : refs_(refs), slots_(slots), max_leaf_size_(max_leaf_size), leaf_block_(leaf_block) {}
 
   RangeInfo scan(uint32_t begin, uint32_t end) {
@@ -298,14 +279,28 @@ class Builder {
 
   float blocks(uint32_t n) const { return float((n + leaf_block_ - 1) / leaf_block_); }
 
-  ScratchArray<PrimRef>& refs_;
-  ScratchArray<BvhNode>& slots_;
+  HugeArray<PrimRef>& refs_;
+  HugeArray<BvhNode>& slots_;
   uint32_t max_leaf_size_;
   uint32_t leaf_block_;
   std::atomic<uint32_t> node_count_{0};
 };
 
 }  // namespace
+
+void* allocate_huge(size_t bytes) {
+  constexpr size_t kHugePage = size_t(2) << 20;
+  if (bytes < kHugePage) {
+    void* p = std::malloc(std::max<size_t>(bytes, 1));
+    if (!p) throw std::bad_alloc();
+    return p;
+  }
+  const size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
+  void* p = std::aligned_alloc(kHugePage, rounded);
+  if (!p) throw std::bad_alloc();
+  madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure just means small pages
+  return p;
+}
 
 size_t binary_bvh_build_bytes(size_t n) {
   return n * (sizeof(PrimRef) + 2 * sizeof(BvhNode) + 2 * sizeof(BvhNode) + sizeof(uint32_t));
@@ -316,7 +311,7 @@ BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_lea
   for (const Bounds& b : prim_bounds) n += !b.empty();
   BinaryBvh bvh;
   if (n == 0) return bvh;
-  ScratchArray<PrimRef> refs(n);
+  HugeArray<PrimRef> refs = make_huge_array<PrimRef>(n);
   uint32_t next = 0;
   for (size_t i = 0; i < prim_bounds.size(); ++i) {
     const Bounds& b = prim_bounds[i];
@@ -326,7 +321,7 @@ BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_lea
                     _mm_setr_ps(b.hi.x, b.hi.y, b.hi.z, 0.0f)};
   }
   // Only the slots the tree uses are written, and only those are read.
-  ScratchArray<BvhNode> slots(2 * size_t(n) - 1);
+  HugeArray<BvhNode> slots = make_huge_array<BvhNode>(2 * size_t(n) - 1);
   Builder builder(refs, slots, std::max(max_leaf_size, 1u), std::max(leaf_block, 1u));
   builder.build(0, 1, 0, n, builder.scan(0, n), 0);
 

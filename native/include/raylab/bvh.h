@@ -83,7 +83,7 @@ class Bvh final : public StructureBase<Bvh> {
   size_t memory_bytes() const override;
 
   const std::vector<Bvh4Node>& nodes() const { return nodes_; }
-  const std::vector<TrianglePacket>& packets() const { return packets_; }
+  std::span<const TrianglePacket> packets() const { return {packets_.get(), packet_count_}; }
 
  private:
   struct Entry {
@@ -213,7 +213,8 @@ class Bvh final : public StructureBase<Bvh> {
 
   Bounds root_bounds_;
   std::vector<Bvh4Node> nodes_;
-  std::vector<TrianglePacket> packets_;
+  HugeArray<TrianglePacket> packets_;
+  size_t packet_count_ = 0;
   std::vector<uint32_t> leaf_packets_;  // first packet of each leaf, increasing: leaf k's id
 };
 
