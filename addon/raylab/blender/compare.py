@@ -35,15 +35,15 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
         return {'FINISHED'}
 
 
-# (column title, formatter of a comparison row)
-COLUMNS = (("Build s", lambda r: f"{r['build_seconds']:.3f}"),
-           ("Render s", lambda r: f"{r['render_seconds']:.2f}"),
-           ("Rays", lambda r: human_count(r["rays_primary"] + r["rays_shadow"] + r["rays_reflection"]
-                                          + r["rays_refraction"])),
-           ("Box tests", lambda r: human_count(r["box_tests"])),
-           ("Tri tests", lambda r: human_count(r["triangle_tests"])),
-           ("Ignored", lambda r: human_count(r["rays_ignored"])),
-           ("Memory", lambda r: f"{r['memory_bytes'] / 1024:.0f} KiB"))
+# (measure, formatter of a comparison row)
+MEASURES = (("Build (ms)", lambda r: f"{1000 * r['build_seconds']:.1f}"),
+            ("Render (s)", lambda r: f"{r['render_seconds']:.2f}"),
+            ("Rays", lambda r: human_count(r["rays_primary"] + r["rays_shadow"] + r["rays_reflection"]
+                                           + r["rays_refraction"])),
+            ("Box tests", lambda r: human_count(r["box_tests"])),
+            ("Triangle tests", lambda r: human_count(r["triangle_tests"])),
+            ("Rays ignored", lambda r: human_count(r["rays_ignored"])),
+            ("Memory (KiB)", lambda r: f"{r['memory_bytes'] / 1024:.0f}"))
 
 
 class RAYLAB_PT_comparison(bpy.types.Panel):
@@ -63,14 +63,17 @@ class RAYLAB_PT_comparison(bpy.types.Panel):
             return
         first = next(iter(table.values()))
         layout.label(text=f"{first['width']} x {first['height']} px, super sampling {first['super_sampling']}")
-        grid = layout.grid_flow(row_major=True, columns=len(table) + 1, even_columns=False, align=True)
-        grid.label(text="")
+        # The sidebar is narrow: one line of four values (a column per structure) under each measure.
+        column = layout.column(align=True)
+        header = column.grid_flow(row_major=True, columns=len(table), even_columns=True)
         for structure in table.keys():
-            grid.label(text=structure)
-        for title, cell in COLUMNS:
-            grid.label(text=title)
+            header.label(text=structure)
+        for title, cell in MEASURES:
+            column.separator()
+            column.label(text=title)
+            values = column.box().grid_flow(row_major=True, columns=len(table), even_columns=True)
             for row in table.values():
-                grid.label(text=cell(row))
+                values.label(text=cell(row))
 
 
 CLASSES = (RAYLAB_OT_compare_structures, RAYLAB_PT_comparison)

@@ -43,7 +43,7 @@ def total_rays(stats):
 def human_count(n):
     for limit, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
         if n >= limit:
-            return f"{n / limit:.1f}{suffix}"
+            return f"{n / limit:.{0 if n >= 100 * limit else 1}f}{suffix}"
     return f"{int(n)}"
 
 
@@ -125,7 +125,7 @@ class RAYLAB_PT_render_settings(RaylabRenderPanel, bpy.types.Panel):
         layout.prop(props, "shadows")
         layout.prop(props, "robust_offset")
         layout.prop(props, "tile_size")
-        layout.label(text="Background and ambient light: the world colour", icon='WORLD')
+        layout.label(text="World colour: background and ambient", icon='WORLD')
 
 
 def draw_stats_rows(layout, record):
