@@ -266,7 +266,10 @@ def aabb_ray_cases():
     cases = [("missed_root", "ignored:\nmisses the box,\nno triangle tested"),
              ("missed_triangles", "box hit, object missed:\nall triangles tested"),
              ("hit_object", "object hit:\nall triangles tested")]
-    fig, axes = new_figure(3, width=3.6, height=4.0)
+    fig, axes = new_figure(2, 2, width=3.8, height=3.8)  # near square: the sidebar shows it in a square
+    axes = list(axes)
+    axes[3].text(0.0, 0.5, "a box test costs about\none triangle test:\na ray that misses the box\n"
+                 "saves all the triangle tests", fontsize=12, va="center")
     for ax, (status, title) in zip(axes, cases):
         o, d = find_ray(status, -2.0, ys, tris, lo, hi, leaves)
         draw_triangles(ax, tris)
@@ -288,8 +291,8 @@ def sample_scene():
 def quadtree_depths():
     tris = sample_scene()
     lo, hi = square_around(np.vstack(tris))
-    fig, axes = new_figure(3, width=3.6, height=3.8)
-    for ax, depth in zip(axes, (1, 2, 4)):
+    fig, axes = new_figure(2, 2, width=3.6, height=3.8)
+    for ax, depth in zip(axes, (1, 2, 3, 4)):
         draw_triangles(ax, tris, lw=0.5)
         for clo, chi, d, leaf, ids in build_quadtree(tris, lo, hi, depth, leaf_size=2):
             if leaf:
@@ -436,7 +439,7 @@ def race_work_per_ray():
     tris = sample_scene()
     lo, hi = square_around(np.vstack(tris), margin=0.2)
     o, d = np.array([lo[0] - 0.4, -0.35]), unit([1, 0.12])
-    fig, axes = new_figure(4, width=3.0, height=3.3)
+    fig, axes = new_figure(2, 2, width=3.4, height=3.5)
     t_hit = ray_triangles(o, d, tris)
     shape_lo, shape_hi = np.vstack(tris).min(axis=0), np.vstack(tris).max(axis=0)
     for ax, name in zip(axes, ("none", "aabb", "octree", "bvh")):

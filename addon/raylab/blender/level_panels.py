@@ -9,7 +9,7 @@ import bpy.utils.previews
 from . import levels
 
 _previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
-CHARACTER_WIDTH = 7.0  # pixels of an average sidebar character at UI scale 1, for wrapping
+CHARACTER_WIDTH = 7.5  # pixels of an average sidebar character at UI scale 1, for wrapping
 
 
 def diagram_icon(path):
@@ -17,7 +17,8 @@ def diagram_icon(path):
     if _previews is None:
         _previews = bpy.utils.previews.new()
     if path not in _previews:
-        _previews.load(path, path, 'IMAGE')
+        # Reading the size makes Blender load the picture now, not on a later redraw.
+        _previews.load(path, path, 'IMAGE').image_size[:]
     return _previews[path].icon_id
 
 
@@ -49,33 +50,39 @@ class _LevelPanel:
     bl_category = "raylab"
 
 
+def _level_buttons(layout, context, current):
+    try:
+        all_levels, errors = levels.available_levels()
+    except levels.LevelError as error:
+        layout.label(text=str(error), icon='ERROR')
+        return
+    column = layout.column(align=True)
+    for item in all_levels:
+        is_current = current is not None and item.id == current.id
+        op = column.operator(levels.RAYLAB_OT_level_open.bl_idname, text=item.title, depress=is_current,
+                             icon='CHECKMARK' if is_current else 'PLAY')
+        op.level_id = item.id
+    for error in errors:
+        _label_lines(layout, wrapped(context, str(error), 4), 'ERROR')
+
+
 class RAYLAB_PT_levels(_LevelPanel, bpy.types.Panel):
+    """The open level's title, goal and next / previous; without one, the list of levels."""
     bl_label = "Levels"
-    bl_order = 0
 
     def draw(self, context):
         layout = self.layout
-        try:
-            all_levels, errors = levels.available_levels()
-        except levels.LevelError as error:
-            layout.label(text=str(error), icon='ERROR')
-            return
         level = current_level(context)
-        column = layout.column(align=True)
-        for item in all_levels:
-            op = column.operator(levels.RAYLAB_OT_level_open.bl_idname, text=item.title,
-                                 depress=level is not None and item.id == level.id,
-                                 icon='CHECKMARK' if level is not None and item.id == level.id else 'PLAY')
-            op.level_id = item.id
-        for error in errors:
-            _label_lines(layout, wrapped(context, str(error), 4), 'ERROR')
+        if level is None:
+            layout.label(text="Open a level to start:")
+            _level_buttons(layout, context, None)
         row = layout.row(align=True)
         row.operator(levels.RAYLAB_OT_level_step.bl_idname, text="Previous", icon='TRIA_LEFT').delta = -1
         row.operator(levels.RAYLAB_OT_level_step.bl_idname, text="Next", icon='TRIA_RIGHT').delta = 1
         if level is not None:
             box = layout.box()
-            box.label(text=level.title, icon='INFO')
-            _label_lines(box, wrapped(context, "Goal: " + level.goal, 4))
+            _label_lines(box, wrapped(context, level.title, 4), 'INFO')
+            _label_lines(box, wrapped(context, "Goal: " + level.goal, 2))
 
 
 class _OpenLevelPanel(_LevelPanel):
@@ -154,6 +161,14 @@ class RAYLAB_PT_level_mesh(_OpenLevelPanel, bpy.types.Panel):
                                   icon='FILE_REFRESH')
 
 
+class RAYLAB_PT_level_list(_OpenLevelPanel, bpy.types.Panel):
+    bl_label = "All levels"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        _level_buttons(self.layout, context, current_level(context))
+
+
 class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
     """Show this diagram full size in a new window"""
     bl_idname = "raylab.level_show_diagram"
@@ -176,7 +191,7 @@ class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
 
 
 CLASSES = (RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_level_text, RAYLAB_PT_level_tasks,
-           RAYLAB_PT_level_mesh)
+           RAYLAB_PT_level_mesh, RAYLAB_PT_level_list)
 
 
 def register():
