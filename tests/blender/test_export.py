@@ -82,25 +82,31 @@ def busy_scene():
 
 
 def blender_camera_rays(scene):
-    """Origin and (H*W,3) unit directions through the pixel centres, row 0 at the top, from view_frame."""
+    """(H*W,3) origins and unit directions through the pixel centres, row 0 at the top, from view_frame:
+    perspective rays leave the camera, orthographic rays leave the camera plane along its -Z."""
     camera = scene.camera
-    matrix = camera.matrix_world.normalized()
+    matrix = np.array(camera.matrix_world.normalized())
     top_right, _, bottom_left, top_left = [np.array(corner) for corner in camera.data.view_frame(scene=scene)]
     u = (np.arange(WIDTH) + 0.5) / WIDTH
     v = (np.arange(HEIGHT) + 0.5) / HEIGHT
     local = (top_left + u[None, :, None] * (top_right - top_left)
              + v[:, None, None] * (bottom_left - top_left)).reshape(-1, 3)
-    directions = local @ np.array(matrix.to_3x3()).T
-    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    return np.array(matrix.translation), directions
+    if camera.data.type == 'ORTHO':
+        local_origins = local * [1.0, 1.0, 0.0]
+        local_directions = np.tile([0.0, 0.0, -1.0], (len(local), 1))
+    else:
+        local_origins = np.zeros_like(local)
+        local_directions = local
+    origins = local_origins @ matrix[:3, :3].T + matrix[:3, 3]
+    directions = local_directions @ matrix[:3, :3].T
+    return origins, directions / np.linalg.norm(directions, axis=1, keepdims=True)
 
 
 def blender_ray_cast(scene, depsgraph):
     """Blender's own closest hit per pixel: (object name or '', distance or inf) maps."""
-    origin, directions = blender_camera_rays(scene)
-    names = np.full(len(directions), "", dtype=object)
-    distances = np.full(len(directions), np.inf)
-    for k, direction in enumerate(directions):
+    names = np.full(WIDTH * HEIGHT, "", dtype=object)
+    distances = np.full(WIDTH * HEIGHT, np.inf)
+    for k, (origin, direction) in enumerate(zip(*blender_camera_rays(scene))):
         hit, location, _, _, obj, _ = scene.ray_cast(depsgraph, origin, direction)
         if hit:
             names[k] = obj.original.name
@@ -121,7 +127,19 @@ def silhouette_pixels(*name_maps):
     return edge
 
 
-def test_raylab_sees_what_blender_ray_cast_sees(busy_scene):
+CAMERAS = {
+    "perspective": {},
+    "perspective, vertical sensor fit, shifted, wide pixels":
+        dict(sensor_fit='VERTICAL', shift_x=0.08, shift_y=-0.05, lens=38.0, pixel_aspect_x=1.5),
+    "orthographic": dict(type='ORTHO', ortho_scale=7.5, shift_x=0.05),
+}
+
+
+@pytest.mark.parametrize("camera_settings", CAMERAS.values(), ids=CAMERAS.keys())
+def test_raylab_sees_what_blender_ray_cast_sees(busy_scene, camera_settings):
+    camera = busy_scene.camera.data
+    for name, value in camera_settings.items():
+        setattr(busy_scene.render if name.startswith("pixel_aspect") else camera, name, value)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     exported = scene_export.export_scene(depsgraph)
     raylab_scene, objects = scene_export.build_scene(exported, structure="bvh")
