@@ -62,8 +62,9 @@ def test_closest_and_any_hit_equal_brute_force(name, structure):
     s = raylab.build(vertices, triangles, structure)
     o, d, f = origins[checked], directions[checked], family[checked]
     assert_same_hits(s.intersect(o, d), reference, f, f"{structure} on {name}")
-    # The counting path is the same traversal with another recorder: it must find the same hits.
-    assert_same_hits(s.intersect(o, d, count=True), reference, f, f"{structure} (counting) on {name}")
+    if structure != "aabb":  # (aabb's counting is checked in test_api: here it would only cost time)
+        # The counting path is the same traversal with another recorder: it must find the same hits.
+        assert_same_hits(s.intersect(o, d, count=True), reference, f, f"{structure} (counting) on {name}")
     occluded = s.occluded(o, d).hit
     differs = np.flatnonzero(occluded != reference.hit)
     assert len(differs) == 0, (f"{structure} on {name}: any-hit disagrees with brute force on {len(differs)} "
