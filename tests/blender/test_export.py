@@ -3,16 +3,13 @@
 Run inside Blender: blender -b --factory-startup --python-expr "import pytest; pytest.main(['tests/blender'])"
 """
 import math
-import os
-import sys
 
 import bpy
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
-import raylab  # noqa: E402
-from raylab.blender import scene_export  # noqa: E402
+import raylab
+from raylab.blender import scene_export
 
 WIDTH, HEIGHT = 96, 72
 

@@ -2,16 +2,14 @@
 report an error without crashing, Esc cancels, and the comparison operator measures all four structures."""
 import math
 import os
-import sys
 import tempfile
 
 import bpy
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
-import raylab  # noqa: E402
-from raylab.blender import default_scene, render_engine, scene_export  # noqa: E402
+import raylab
+from raylab.blender import default_scene, render_engine, scene_export
 
 RESOLUTION = (120, 90)
 

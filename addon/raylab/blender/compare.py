@@ -3,7 +3,7 @@ import bpy
 
 import raylab
 
-from .render_engine import human_count, id_property_stats, render_exported
+from .render_engine import human_count, id_property_stats, render_exported, total_rays
 from .scene_export import export_scene
 
 
@@ -38,8 +38,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
 # (measure, formatter of a comparison row)
 MEASURES = (("Build (ms)", lambda r: f"{1000 * r['build_seconds']:.1f}"),
             ("Render (s)", lambda r: f"{r['render_seconds']:.2f}"),
-            ("Rays", lambda r: human_count(r["rays_primary"] + r["rays_shadow"] + r["rays_reflection"]
-                                           + r["rays_refraction"])),
+            ("Rays", lambda r: human_count(total_rays(r))),
             ("Box tests", lambda r: human_count(r["box_tests"])),
             ("Triangle tests", lambda r: human_count(r["triangle_tests"])),
             ("Rays ignored", lambda r: human_count(r["rays_ignored"])),
