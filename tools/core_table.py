@@ -66,14 +66,14 @@ def measure(path, args):
 
 def table(results, args):
     lines = [
-        "| mesh | triangles | structure | rays | build ms | memory bytes | bytes/tri | camera Mrays/s | "
-        "random Mrays/s | box tests/ray cam / rnd | triangle tests/ray cam / rnd |",
+        "| mesh | triangles | structure | rays | build ms | memory bytes | bytes/tri | camera rays/s | "
+        "random rays/s | box tests/ray cam / rnd | triangle tests/ray cam / rnd |",
         "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for mesh, (count, rows) in results.items():
         for r in rows:
             lines.append(
                 f"| {mesh} | {count:,} | {r['structure']} | {r['rays']:,} | {r['build_ms']:.1f} | {r['memory']:,} | "
-                f"{r['memory'] / count:.1f} | {r['camera'] / 1e6:.3f} | {r['random'] / 1e6:.3f} | "
+                f"{r['memory'] / count:.1f} | {r['camera']:,.0f} | {r['random']:,.0f} | "
                 f"{r['camera_tests'][0]:.1f} / {r['random_tests'][0]:.1f} | "
                 f"{r['camera_tests'][1]:.1f} / {r['random_tests'][1]:.1f} |")
     lines.append("")
