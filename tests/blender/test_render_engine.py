@@ -98,11 +98,14 @@ def test_cancel_returns_cleanly(demo_scene, monkeypatch):
     bpy.ops.render.render()
     assert "raylab_last_render" not in demo_scene   # a cancelled render leaves no statistics
 
+    # Mid-render: the slow structure, cancelled at the second progress report.
+    demo_scene.render.resolution_x, demo_scene.render.resolution_y = 320, 240
     exported = scene_export.export_scene(bpy.context.evaluated_depsgraph_get())
     calls = []
-    result = render_engine.render_exported(exported, demo_scene.raylab_render,
-                                           progress=lambda fraction: calls.append(fraction) or True)
-    assert result.cancelled and calls
+    result = render_engine.render_exported(exported, demo_scene.raylab_render, structure="none",
+                                           progress=lambda fraction: calls.append(fraction) or len(calls) > 1)
+    assert result.cancelled and len(calls) == 2
+    assert (result.image[..., 3] == 0).any()   # tiles never rendered keep zero colour and alpha
 
 
 def test_comparison_operator_measures_all_four_structures(demo_scene):
