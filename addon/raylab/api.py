@@ -6,6 +6,7 @@
     o = s.occluded(origins, directions)              # any hit (shadow rays)
     st = s.story(origin, direction)                  # everything one ray did
     b = s.boxes()                                    # the boxes, for drawing
+    sc = raylab.Scene(structure="bvh")               # instances of shared meshes; sc.intersect(...)
 
 Bad input raises ValueError naming the problem; a build over the memory budget raises BuildError.
 """
@@ -22,6 +23,7 @@ __all__ = [
 STRUCTURES = ("none", "aabb", "octree", "bvh")
 TRIANGLE_TESTS = ("watertight", "moller_trumbore")
 BuildError = _raylab.BuildError
+
 
 class _Record:
     """Named fields filled from the native module's dict."""
@@ -63,13 +65,9 @@ class RayStory(_Record):
     __slots__ = ("status", "boxes", "nodes", "node_depths", "triangles", "triangle_hits", "hit", "stats")
 
 
-def _path(path):
-    return os.fspath(path)
-
-
 def load_mesh(path):
     """Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles). OSError if unreadable."""
-    return _raylab.load_mesh(_path(path))
+    return _raylab.load_mesh(os.fspath(path))
 
 
 class Structure:
@@ -132,7 +130,7 @@ def build(vertices, triangles, structure="bvh", max_depth=6, leaf_size=8, triang
 def build_file(path, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
                memory_budget=None):
     """build() over the mesh read from an OBJ file."""
-    return Structure(_raylab.build_file(_path(path), structure, max_depth, leaf_size, triangle_test,
+    return Structure(_raylab.build_file(os.fspath(path), structure, max_depth, leaf_size, triangle_test,
                                         memory_budget))
 
 
