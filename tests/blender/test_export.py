@@ -175,6 +175,20 @@ def test_instances_share_one_mesh_and_modifiers_are_applied(busy_scene):
     assert len(bars_vertices) == 3 * len(bpy.data.objects["Cube"].data.vertices)
 
 
+def test_text_is_exported_as_blender_meshes_it(busy_scene):
+    # scene.ray_cast does not see curves and text, so this checks the triangles instead of pixels.
+    bpy.ops.object.text_add()
+    text = bpy.context.object
+    text.data.extrude = 0.08
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    exported = scene_export.export_scene(depsgraph)
+    [mesh] = [i.mesh for i in exported.instances if i.object_name == "Text"]
+    blender_mesh = text.evaluated_get(depsgraph).to_mesh()
+    blender_mesh.calc_loop_triangles()
+    assert len(exported.meshes[mesh][1]) == len(blender_mesh.loop_triangles) > 0
+    text.evaluated_get(depsgraph).to_mesh_clear()
+
+
 def test_principled_material_and_object_colour_fallback(busy_scene):
     material = bpy.data.materials.new("Brass")
     material.use_nodes = True

@@ -32,7 +32,6 @@ class Instance:
 @dataclass
 class ExportedScene:
     meshes: list = field(default_factory=list)       # [(V (n,3) float32, T (m,3) uint32)]
-    mesh_names: list = field(default_factory=list)
     instances: list = field(default_factory=list)    # [Instance]
     materials: list = field(default_factory=list)    # renderer material dicts
     lights: list = field(default_factory=list)       # renderer light dicts
@@ -44,7 +43,7 @@ def export_scene(depsgraph):
     """Export the evaluated scene of `depsgraph`; raises ExportError when it cannot be rendered."""
     scene = depsgraph.scene
     exported = ExportedScene(camera=export_camera(depsgraph))
-    mesh_index = {}        # evaluated mesh pointer -> index: instances share the mesh
+    mesh_index = {}        # evaluated mesh pointer -> index in exported.meshes
     material_index = {}    # material name or object colour -> index
     for instance in depsgraph.object_instances:
         obj = instance.object
@@ -53,6 +52,8 @@ def export_scene(depsgraph):
         if obj.type == 'LIGHT':
             exported.lights.append(_light(obj.data, instance.matrix_world))
         elif obj.type == 'MESH':
+            # Objects that share an evaluated mesh (one datablock without modifiers, or instances of one
+            # object) share its pointer. Curves and text come as mesh instances of their evaluated geometry.
             key = obj.data.as_pointer()
             if key not in mesh_index:
                 arrays = _mesh_arrays(obj.data, obj.original.name)
@@ -60,7 +61,6 @@ def export_scene(depsgraph):
                     continue
                 mesh_index[key] = len(exported.meshes)
                 exported.meshes.append(arrays)
-                exported.mesh_names.append(obj.data.name)
             material = _material_slot(obj, material_index, exported.materials)
             exported.instances.append(Instance(mesh_index[key], np.array(instance.matrix_world, np.float64),
                                                material, obj.original.name))
