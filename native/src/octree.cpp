@@ -109,6 +109,8 @@ uint32_t overlapped_octants(const TriangleMesh& mesh, uint32_t triangle, const B
 }  // namespace
 
 Octree::Octree(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std::move(mesh), settings) {
+  if (settings.max_depth > kMaxDepth)  // the traversal stack is sized for kMaxDepth
+    throw std::invalid_argument("octree max_depth must be <= " + std::to_string(kMaxDepth));
   if (mesh_->triangle_count() == 0) return;
   root_ = root_cube(mesh_->bounds());
   const glm::vec3 e = root_.extent();

@@ -260,7 +260,7 @@ TEST(Octree, EqualsBruteForceOnShippedMeshes) {
   }
 }
 
-TEST(Octree, FlatAndPointLikeMeshesGetAValidRoot) {
+TEST(Octree, DegenerateMeshesGetAValidRootOrNone) {
   const MeshPtr flat = mesh_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {{0, 1, 2}, {1, 3, 2}});
   const MeshPtr point = mesh_of({{2, 3, 4}}, {{0, 0, 0}, {0, 0, 0}});
   for (const MeshPtr& mesh : {flat, point}) {
@@ -275,6 +275,11 @@ TEST(Octree, FlatAndPointLikeMeshesGetAValidRoot) {
   Hit h;
   EXPECT_TRUE(build(flat, StructureKind::Octree, 4, 1)->closest(down, h));
   EXPECT_EQ(h.triangle, 1u);
+
+  const auto empty = build(mesh_of({}, {}), StructureKind::Octree);
+  EXPECT_TRUE(empty->boxes().empty());
+  EXPECT_EQ(empty->story(down).status, RayStatus::MissedRoot);
+  EXPECT_FALSE(empty->any(down));
 }
 
 TEST(Octree, TinyMemoryBudgetThrowsBuildError) {
