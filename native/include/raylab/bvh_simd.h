@@ -113,13 +113,15 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   const __m128 positive =
       _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
   const __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
+  const __m128 inside = _mm_andnot_ps(_mm_and_ps(negative, positive), _mm_cmpneq_ps(det, zero));
+  int mask = _mm_movemask_ps(inside) & ~exact_zero;
+  if (mask == 0 && exact_zero == 0) return 0;  // the common case: the ray passes beside all four
   const __m128 scaled_t =
       _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, z[0]), _mm_mul_ps(v, z[1])), _mm_mul_ps(w, z[2]));
   const __m128 inv_det = _mm_div_ps(_mm_set1_ps(1.0f), det);
   const __m128 t = _mm_mul_ps(scaled_t, inv_det);
-  const __m128 inside = _mm_andnot_ps(_mm_and_ps(negative, positive), _mm_cmpneq_ps(det, zero));
   const __m128 in_range = _mm_and_ps(_mm_cmpgt_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
-  int mask = _mm_movemask_ps(_mm_and_ps(inside, in_range)) & ~exact_zero;
+  mask &= _mm_movemask_ps(in_range);
   _mm_storeu_ps(t_out, t);
   _mm_storeu_ps(u_out, _mm_mul_ps(v, inv_det));
   _mm_storeu_ps(v_out, _mm_mul_ps(w, inv_det));
