@@ -25,7 +25,9 @@ constexpr uint32_t kScanGrain = 1u << 13;
 // Deeper nodes split at the index median, so the depth stays below kMaxSahDepth + log2(n) whatever
 // the input (the traversal stacks rely on it).
 constexpr int kMaxSahDepth = 48;
-constexpr float kTraversalCost = 1.0f;  // one node visit, in units of one leaf block test
+// One node visit, in units of one leaf block test. Measured on bunny_hr, dragon and a 1.3M sphere:
+// 2 beats 1 by a few percent (fuller packets, fewer nodes) and higher values change nothing more.
+constexpr float kTraversalCost = 2.0f;
 
 // A box in SSE registers (the w lanes are unused). Binning is the builder's inner loop: one min and
 // one max per box instead of six scalar ones.
