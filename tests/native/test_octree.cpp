@@ -1,6 +1,7 @@
 #include "raylab/mesh_io.h"
 #include "raylab/octree.h"
 #include "raylab/structure.h"
+#include "raylab/triangle_box_overlap.h"
 
 #include <gtest/gtest.h>
 
@@ -132,6 +133,40 @@ TraversalStats count_closest(const Structure& s, const std::vector<Ray>& rays) {
 }
 
 }  // namespace
+
+TEST(OctreeTriangleBoxOverlap, DecidesBySeparatingAxesNotByVertices) {
+  const Bounds box({0, 0, 0}, {1, 1, 1});
+  // A large triangle through the box with every vertex outside it.
+  EXPECT_TRUE(triangle_box_overlap(box, {-5, -5, 0.5f}, {5, -5, 0.5f}, {0, 10, 0.5f}));
+  // Touching counts: a vertex on a face, an edge along an edge of the box.
+  EXPECT_TRUE(triangle_box_overlap(box, {1, 0.5f, 0.5f}, {2, 0.5f, 0.5f}, {2, 1, 0.5f}));
+  EXPECT_TRUE(triangle_box_overlap(box, {1, 1, -1}, {1, 1, 2}, {3, 3, 0}));
+  // The triangle's bounds overlap the box in both cases below. A vertical triangle in the plane
+  // x + y = 2.2 passes beside the corner (1, 1) (its normal separates) ...
+  EXPECT_FALSE(triangle_box_overlap(box, {0.5f, 1.7f, -1}, {0.5f, 1.7f, 2}, {1.7f, 0.5f, 0.5f}));
+  // ... and a triangle in the plane z = 0.5, which cuts the box, has its edge x + y = 2.1 beside the
+  // corner (an edge axis separates).
+  EXPECT_FALSE(triangle_box_overlap(box, {0.5f, 1.6f, 0.5f}, {1.6f, 0.5f, 0.5f}, {3, 3, 0.5f}));
+  EXPECT_TRUE(triangle_box_overlap(box, {0.5f, 1.4f, 0.5f}, {1.4f, 0.5f, 0.5f}, {3, 3, 0.5f}));
+}
+
+TEST(OctreeTriangleBoxOverlap, OctantsAgreeWithTheSingleBoxTest) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> coordinate(-0.5f, 1.5f), size(0.0f, 0.6f);
+  const Bounds box({0, 0, 0}, {1, 1, 1});
+  int checked = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const glm::vec3 a(coordinate(rng), coordinate(rng), coordinate(rng));
+    const glm::vec3 b = a + size(rng) * glm::vec3(coordinate(rng), coordinate(rng), coordinate(rng));
+    const glm::vec3 c = a + size(rng) * glm::vec3(coordinate(rng), coordinate(rng), coordinate(rng));
+    if (!triangle_box_overlap(box, a, b, c)) continue;  // the octant test requires an overlap
+    ++checked;
+    const uint32_t octants = triangle_octant_overlaps(box, box.center(), a, b, c);
+    for (int o = 0; o < 8; ++o)
+      ASSERT_EQ(((octants >> o) & 1u) != 0, triangle_box_overlap(octant_bounds(box, o), a, b, c)) << "octant " << o;
+  }
+  EXPECT_GT(checked, 2000);
+}
 
 TEST(Octree, LargeTriangleIsHitWhereverBruteForceHitsItAtEveryDepth) {
   const MeshPtr mesh = large_triangle_mesh();

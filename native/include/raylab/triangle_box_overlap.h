@@ -22,7 +22,9 @@ namespace detail {
 
 // The test against the 8 cells of a 2x2x2 grid at once: `planes` holds lo <= mid <= hi per
 // dimension, and bit i of `cells` stands for the cell whose k-th interval is [mid, hi] when bit k of
-// i is set, else [lo, mid]. Returns the cells of `cells` that no axis separates from the triangle.
+// i is set, else [lo, mid]. Returns the cells of `cells` that neither the triangle's normal nor an
+// edge axis separates from the triangle; the callers have decided the box face normals already,
+// exactly, on the triangle's bounds.
 // A box projects onto an axis as the sum of its three edges' projections, so the 8 cells share
 // nearly all the work.
 inline uint32_t triangle_grid_overlaps(const glm::dvec3 planes[3], const glm::vec3& a, const glm::vec3& b,
@@ -59,11 +61,6 @@ inline uint32_t triangle_grid_overlaps(const glm::dvec3 planes[3], const glm::ve
   // heavily for a sliver, so its rounding error is bounded by the product of the edges, not by its
   // own length.
   separate(glm::cross(e[0], e[1]), norm1(e[0]) * norm1(e[1]));
-  for (int k = 0; k < 3 && cells; ++k) {
-    glm::dvec3 unit(0.0);
-    unit[k] = 1.0;
-    separate(unit, 1.0);
-  }
   for (int j = 0; j < 3 && cells; ++j) {
     const glm::dvec3& f = e[j];
     const double w = norm1(f);
@@ -78,6 +75,9 @@ inline uint32_t triangle_grid_overlaps(const glm::dvec3 planes[3], const glm::ve
 
 // The closed triangle abc against the closed box.
 inline bool triangle_box_overlap(const Bounds& box, const glm::vec3& a, const glm::vec3& b, const glm::vec3& c) {
+  // The box face normals: the triangle's bounds against the box.
+  const glm::vec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
+  if (glm::any(glm::greaterThan(lo, box.hi)) || glm::any(glm::lessThan(hi, box.lo))) return false;
   // The box is cell 0 of a grid whose upper cells are empty.
   const glm::dvec3 planes[3] = {glm::dvec3(box.lo), glm::dvec3(box.hi), glm::dvec3(box.hi)};
   return detail::triangle_grid_overlaps(planes, a, b, c, 1u) != 0;
@@ -87,7 +87,7 @@ inline bool triangle_box_overlap(const Bounds& box, const glm::vec3& a, const gl
 // bit k of i is set) that the triangle overlaps, for a triangle that overlaps `box` itself.
 inline uint32_t triangle_octant_overlaps(const Bounds& box, const glm::vec3& mid, const glm::vec3& a,
                                          const glm::vec3& b, const glm::vec3& c) {
-  // The box axes first, exactly, on the triangle's bounds: most triangles stay in one octant.
+  // The box face normals first, exactly, on the triangle's bounds: most triangles stay in one octant.
   const glm::vec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
   constexpr uint32_t kUpper[3] = {0xaa, 0xcc, 0xf0};  // octants with bit k set
   uint32_t candidates = 0xff;
