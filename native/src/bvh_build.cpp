@@ -305,7 +305,8 @@ void* allocate_huge(size_t bytes) {
 }
 
 size_t binary_bvh_build_bytes(size_t n) {
-  return n * (sizeof(PrimRef) + 2 * sizeof(BvhNode) + 2 * sizeof(BvhNode) + sizeof(uint32_t));
+  // References, the 2n slots, the compacted nodes (at most 2n) and the primitive order.
+  return n * (sizeof(PrimRef) + 4 * sizeof(BvhNode) + sizeof(uint32_t));
 }
 
 BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_leaf_size, uint32_t leaf_block) {

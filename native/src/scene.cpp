@@ -5,6 +5,7 @@
 #include "raylab/bvh_build.h"
 
 #include <glm/gtc/matrix_access.hpp>
+#include <tbb/parallel_for.h>
 
 #include <chrono>
 #include <cmath>
@@ -252,8 +253,12 @@ void Scene::set_settings(const BuildSettings& settings) {
 
 void Scene::commit() {
   const auto start = std::chrono::steady_clock::now();
-  for (Impl::MeshSlot& m : impl_->meshes)
+  // Stale meshes build side by side (each build is parallel inside too): many small meshes would
+  // otherwise leave cores idle.
+  tbb::parallel_for(size_t(0), impl_->meshes.size(), [&](size_t i) {
+    Impl::MeshSlot& m = impl_->meshes[i];
     if (!m.structure) m.structure = build_structure(m.mesh, impl_->settings);
+  });
   if (impl_->top_stale) {
     impl_->world_bounds.resize(impl_->instances.size());
     for (size_t i = 0; i < impl_->instances.size(); ++i) {
