@@ -24,10 +24,11 @@ def start_blend(directory):
     return path
 
 
-def run_gui_blender(script, args, blend=None, timeout=600):
+def run_gui_blender(script, args, blend=None, timeout=600, extra=()):
     """Runs `script` inside Blender in a 1600x900 Xvfb window; the script quits Blender itself.
-    Returns the finished process (its output helps when a report file is missing)."""
-    command = ["xvfb-run", "-a", "-s", SCREEN, "blender", "--factory-startup"]
+    `extra`: more Blender flags (e.g. --enable-event-simulate). Returns the finished process (its
+    output helps when a report file is missing)."""
+    command = ["xvfb-run", "-a", "-s", SCREEN, "blender", "--factory-startup", *extra]
     command += [blend] if blend else []
     command += ["--python", script, "--", *args]
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout)

@@ -23,13 +23,25 @@ from mathutils import Vector
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
-import raylab  # noqa: E402
-from raylab.blender import levels, probe  # noqa: E402
-
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
 os.makedirs(OUT_DIR, exist_ok=True)
 report = {"levels": {}}
+WATCHDOG_SECONDS = 240  # a window left open would keep the test waiting: quit with an error instead
+
+
+def finish():
+    with open(os.path.join(OUT_DIR, "levels_shots.json"), "w") as f:
+        json.dump(report, f)
+    bpy.ops.wm.quit_blender()
+
+
+try:
+    import raylab  # noqa: E402
+    from raylab.blender import levels, probe  # noqa: E402
+except Exception:
+    report["error"] = traceback.format_exc()
+    finish()
 BOX_EDGES = [(0, 1), (1, 3), (3, 2), (2, 0), (4, 5), (5, 7), (7, 6), (6, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
 
 
@@ -148,10 +160,9 @@ STEPS = [step for level_id in LEVEL_IDS for step in steps_for(level_id)]
 STEPS.insert(1, click_raylab_tab)  # once: the sidebar keeps its tab from level to level
 
 
-def finish():
-    with open(os.path.join(OUT_DIR, "levels_shots.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
+def watchdog():
+    report["error"] = f"the shots did not finish within {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
+    finish()
 
 
 def run_steps():
@@ -168,6 +179,7 @@ def run_steps():
 try:
     raylab.register()
     bpy.app.timers.register(run_steps, first_interval=2.0)
+    bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
 except Exception:
     report["error"] = traceback.format_exc()
     finish()
