@@ -1,7 +1,7 @@
 // A scene's geometry: meshes, instances of them with a 4x4 transform, and a top level over the
 // instances. One structure per mesh, in object space, shared by all its instances; rays are moved
-// into object space. Only what changed is rebuilt: a new transform costs a top-level refit, a
-// replaced mesh rebuilds its own structure alone.
+// into object space. Only what changed is rebuilt: a new transform rebuilds the top level alone (a
+// BVH over instance boxes, cheap), a replaced mesh rebuilds its own structure alone.
 #pragma once
 
 #include "raylab/structure.h"
@@ -33,7 +33,8 @@ class Scene {
   void set_transform(uint32_t instance, const glm::mat4& transform);
   void set_settings(const BuildSettings& settings);  // rebuilds every mesh structure on commit()
 
-  // Builds what is missing or stale: per-mesh structures, then the top level. Queries need it.
+  // Builds what is missing or stale: per-mesh structures, then the top level. A query on a scene
+  // changed since the last commit() throws std::logic_error rather than answer from stale data.
   void commit();
 
   // World-space queries. hit.instance is set; hit.t is in the world ray's parameter.
