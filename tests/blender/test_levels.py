@@ -28,6 +28,12 @@ LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.j
 def addon_registered():
     if not hasattr(bpy.types.Scene, "raylab"):
         raylab.register()
+    before = bpy.context.window.scene
+    yield
+    # Leave Blender as the other test files expect it: their scene back, no level scenes.
+    bpy.context.window.scene = before
+    for scene in [s for s in bpy.data.scenes if levels.state(s) is not None]:
+        levels._remove_scene(scene)
 
 
 def toml_of(level_id):
