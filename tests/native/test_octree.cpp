@@ -295,6 +295,34 @@ TEST(Octree, EqualsBruteForceOnShippedMeshes) {
   }
 }
 
+// Axis-parallel rays lying exactly in the splitting planes of the octree: the slab test meets
+// 0 * inf there, and the hits sit on shared box faces.
+TEST(Octree, AxisRaysInSplittingPlanesEqualBruteForce) {
+  const MeshPtr mesh = shipped("bunny.obj");
+  const auto reference = build(mesh, StructureKind::None);
+  const auto octree = build(mesh, StructureKind::Octree);
+  const std::vector<BoxInfo> boxes = octree->boxes();
+  const Bounds root = octree_of(*octree).root_bounds();
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<size_t> pick(0, boxes.size() - 1);
+  int hits = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Bounds& box = boxes[pick(rng)].bounds;
+    const int axis = i % 3;
+    const bool forward = (i / 3) % 2 == 0;
+    Ray ray;
+    ray.origin = (i / 6) % 2 ? box.lo : box.hi;  // a corner: on three splitting planes
+    ray.origin[axis] = forward ? root.lo[axis] - 1.0f : root.hi[axis] + 1.0f;
+    ray.direction = glm::vec3(0.0f);
+    ray.direction[axis] = forward ? 1.0f : -1.0f;
+    Hit h;
+    hits += reference->closest(ray, h);
+    expect_same_closest(*reference, *octree, ray);
+    EXPECT_EQ(reference->any(ray), octree->any(ray));
+  }
+  EXPECT_GT(hits, 300);
+}
+
 TEST(Octree, DegenerateMeshesGetAValidRootOrNone) {
   const MeshPtr flat = mesh_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {{0, 1, 2}, {1, 3, 2}});
   const MeshPtr point = mesh_of({{2, 3, 4}}, {{0, 0, 0}, {0, 0, 0}});
