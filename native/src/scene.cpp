@@ -102,6 +102,13 @@ struct Scene::Impl {
     return r;
   }
 
+  // `none` and `aabb` are VRT's models: every object meets every ray and its own structure decides
+  // (brute force tests every triangle of every object; the AABB ignores the ray or not). A top level
+  // over the instances would be acceleration those two do not have.
+  bool uses_top_level() const {
+    return settings.kind == StructureKind::Octree || settings.kind == StructureKind::Bvh;
+  }
+
   // One traversal of the top level for both queries. `visit(instance, tmax)` queries one instance
   // and returns the new far limit (any-hit returns -inf to stop).
   template <class Recorder, class Visit>
@@ -112,18 +119,16 @@ struct Scene::Impl {
       float t_entry;
     };
     record.ray();
-    if (top.nodes.empty()) {
-      record.ignored();
+    if (!uses_top_level()) {
+      for (uint32_t k = 0; k < instances.size() && tmax >= ray.tmin; ++k) tmax = visit(k, tmax);
       return;
     }
+    if (top.nodes.empty()) return;
     const BoxRay box_ray(ray);
     float t_root = ray.tmin;
     const bool root_hit = intersect_box(top.nodes[0].bounds(), box_ray, ray.tmax, t_root);
     record.box(0, top.nodes[0].bounds(), 0, root_hit, t_root);
-    if (!root_hit) {
-      record.ignored();
-      return;
-    }
+    if (!root_hit) return;
     Entry stack[Bvh::kStackSize];
     int size = 0;
     stack[size++] = {0, 0, t_root};
@@ -150,12 +155,14 @@ struct Scene::Impl {
     }
   }
 
-  // Runs a query on one instance's structure, adding its work (not its ray count) to the record.
+  // Runs a query on one instance's structure, adding its work (not its ray count) to the record;
+  // `entered` becomes true when the object's structure did not ignore the ray.
   template <class Recorder, class Query>
-  static auto counted(Recorder& record, Query query) {
+  static auto counted(Recorder& record, bool& entered, Query query) {
     if constexpr (Recorder::kActive) {
       TraversalStats s;
       const auto result = query(&s);
+      if (s.rays_ignored == 0) entered = true;
       record.stats.box_tests += s.box_tests;
       record.stats.triangle_tests += s.triangle_tests;
       record.stats.nodes_visited += s.nodes_visited;
@@ -169,12 +176,13 @@ struct Scene::Impl {
   bool closest(const Ray& ray, Hit& hit, Recorder& record) const {
     Hit best = initial_hit(ray);
     float tmax = ray.tmax;
+    bool entered = false;
     traverse(ray, record, tmax, [&](uint32_t k, float limit) {
       const InstanceSlot& inst = instances[k];
       const Structure& s = *meshes[inst.instance.mesh].structure;
       const Ray r = to_object(inst, ray, limit);
       Hit h;
-      const bool found = counted(record, [&](TraversalStats* st) { return st ? s.closest(r, h, *st) : s.closest(r, h); });
+      const bool found = counted(record, entered, [&](TraversalStats* st) { return st ? s.closest(r, h, *st) : s.closest(r, h); });
       // Equal t across instances: the lower instance index wins, whatever the visiting order.
       if (found && (h.t < best.t || (h.t == best.t && k < best.instance))) {
         best = h;
@@ -182,6 +190,7 @@ struct Scene::Impl {
       }
       return best.t;
     });
+    if (!entered) record.ignored();
     if (!best.valid()) return false;
     hit = best;
     return true;
@@ -191,13 +200,15 @@ struct Scene::Impl {
   bool any(const Ray& ray, Recorder& record) const {
     bool found = false;
     float tmax = ray.tmax;
+    bool entered = false;
     traverse(ray, record, tmax, [&](uint32_t k, float limit) {
       const InstanceSlot& inst = instances[k];
       const Structure& s = *meshes[inst.instance.mesh].structure;
       const Ray r = to_object(inst, ray, limit);
-      found = counted(record, [&](TraversalStats* st) { return st ? s.any(r, *st) : s.any(r); });
+      found = counted(record, entered, [&](TraversalStats* st) { return st ? s.any(r, *st) : s.any(r); });
       return found ? -kInfinity : limit;
     });
+    if (!entered) record.ignored();
     return found;
   }
 };

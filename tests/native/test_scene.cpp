@@ -215,3 +215,29 @@ TEST(Scene, CountsTheTopLevelWithTheMeshStructure) {
   EXPECT_EQ(scene_stats.nodes_visited, mesh_stats.nodes_visited + 1);
   EXPECT_EQ(scene_stats.triangle_tests, mesh_stats.triangle_tests);
 }
+
+// VRT's counts: with `none` every ray tests every triangle of every object; with `aabb` a ray is
+// ignored when it misses every object's box; with a top level it is ignored likewise.
+TEST(Scene, RaysIgnoredAreRaysThatEnterNoObject) {
+  for (StructureKind kind : {StructureKind::None, StructureKind::Aabb, StructureKind::Bvh}) {
+    BuildSettings settings;
+    settings.kind = kind;
+    Scene scene(settings);
+    const uint32_t m = scene.add_mesh(unit_square());
+    scene.add_instance(m, glm::mat4(1.0f));
+    scene.add_instance(m, translation(5, 0, 0));
+    scene.commit();
+    TraversalStats stats;
+    Hit h;
+    EXPECT_TRUE(scene.closest(ray_from({0.5f, 0.5f, 1}, {0, 0, -1}), h, &stats));  // hits the first square
+    EXPECT_FALSE(scene.closest(ray_from({3, 0.5f, 1}, {0, 0, -1}), h, &stats));    // between the two
+    EXPECT_FALSE(scene.any(ray_from({3, 0.5f, 1}, {0, 0, -1}), &stats));
+    EXPECT_EQ(stats.rays, 3u);
+    if (kind == StructureKind::None) {
+      EXPECT_EQ(stats.rays_ignored, 0u);  // brute force ignores nothing...
+      EXPECT_EQ(stats.triangle_tests, 3u * 4u);  // ...and tests all four triangles per ray
+    } else {
+      EXPECT_EQ(stats.rays_ignored, 2u) << structure_kind_name(kind);
+    }
+  }
+}

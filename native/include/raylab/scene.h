@@ -38,6 +38,8 @@ class Scene {
   void commit();
 
   // World-space queries. hit.instance is set; hit.t is in the world ray's parameter.
+  // stats.rays_ignored counts rays that entered no object (every object's box missed). With `none`
+  // and `aabb` every object meets every ray, as in VRT; octree and bvh scenes add a top level.
   bool closest(const Ray& ray, Hit& hit, TraversalStats* stats = nullptr) const;
   bool any(const Ray& ray, TraversalStats* stats = nullptr) const;
 
