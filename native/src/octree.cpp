@@ -156,7 +156,7 @@ void Octree::build() {
 
     // 1. Classify: the octants every triangle of a splitting node overlaps, and what each node
     // will produce.
-    check_budget(held() + std::max(refs.size(), octants.size()) + std::max(level.size(), placement.size()) * sizeof(Placement), budget);
+    check_budget(held() + refs.size() + level.size() * sizeof(Placement), budget);
     octants.resize(refs.size());
     placement.resize(level.size());
     // While they grow, the finished arrays need a second copy of what they already hold.
@@ -201,8 +201,8 @@ void Octree::build() {
     }
     // The growing arrays hold their old copy while they move.
     check_budget(held() + (nodes_.size() + new_nodes) * sizeof(OctreeNode) + leaf_refs * kRefBytes +
-                     (new_nodes > next_level.size() ? new_nodes * sizeof(PendingNode) : 0) +
-                     (next_refs > next.size() ? next_refs * kRefBytes : 0),
+                     (new_nodes * sizeof(PendingNode) > next_level.bytes() ? new_nodes * sizeof(PendingNode) : 0) +
+                     (next_refs * kRefBytes > next.bytes() ? next_refs * kRefBytes : 0),
                  budget);
     nodes_.resize(nodes_.size() + new_nodes);
     triangles_.resize(leaf_refs);
