@@ -155,14 +155,20 @@ def test_where_methods_fail_ticks_a_render_then_a_new_render_with_the_robust_off
     scene = levels.open_level(bpy.context, "where_methods_fail")
     assert scene.render.engine == "RAYLAB", "a level renders with raylab"
     scene.render.resolution_x, scene.render.resolution_y = 64, 48
-    assert timer_tick(scene) == [False, False]
+    assert timer_tick(scene) == [False, False, False]
+    assert bpy.ops.raylab.level_leak_test() == {'FINISHED'}
+    leaks = scene[levels.LEAK_KEY]
+    # Rays from inside the closed sphere through its vertices and edges: the watertight test lets none
+    # out, Möller–Trumbore some (the lesson of the level).
+    assert leaks["rays"] > 1000 and leaks["watertight"] == 0 and leaks["moller_trumbore"] > 0
+    assert timer_tick(scene) == [True, False, False]
     bpy.ops.render.render()
     assert "raylab_last_render" in scene
-    assert timer_tick(scene) == [True, False]
+    assert timer_tick(scene) == [True, True, False]
     scene.raylab_render.robust_offset = True
-    assert timer_tick(scene) == [True, False], "the old render does not count for the new task"
+    assert timer_tick(scene) == [True, True, False], "the old render does not count for the new task"
     bpy.ops.render.render()
-    assert timer_tick(scene) == [True, True]
+    assert timer_tick(scene) == [True, True, True]
 
 
 def test_race_ticks_when_the_comparison_has_all_four_structures():

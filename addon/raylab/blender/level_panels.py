@@ -130,6 +130,12 @@ class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
             column = layout.column()
             column.active = done or i == first_open  # later tasks wait their turn
             _label_lines(column, wrapped(context, text, 4), 'CHECKBOX_HLT' if done else 'CHECKBOX_DEHLT')
+        leaks = context.scene.get(levels.LEAK_KEY)
+        if leaks is not None:
+            box = layout.box()
+            box.label(text=f"Leak test: {leaks['rays']:,} rays from inside", icon='MOD_FLUIDSIM')
+            box.label(text=f"Möller–Trumbore: {leaks['moller_trumbore']:,} leaked")
+            box.label(text=f"watertight: {leaks['watertight']:,} leaked")
         if tasks and first_open is None:
             layout.label(text="All done: on to the next level!", icon='FUND')
         controls = current_level(context).controls

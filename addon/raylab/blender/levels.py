@@ -637,7 +637,53 @@ def _check_timer():
     return CHECK_INTERVAL
 
 
+# --- the leak experiment of where_methods_fail ------------------------------------------------------
+
+LEAK_KEY = "raylab_leak_test"
+
+
+def leak_test(scene):
+    """Shoots rays from the centre of the level mesh's box through every vertex and every edge midpoint,
+    the places where two triangles meet, with each triangle test. From inside a closed mesh every ray
+    must hit; the ones that hit nothing leaked. Stores and returns {rays, moller_trumbore, watertight}."""
+    obj = level_mesh_object(scene)
+    if obj is None:
+        raise LevelError("the scene is not a level (open one first)")
+    vertices, triangles = object_mesh_arrays(obj)
+    targets = np.concatenate([vertices] + [(vertices[triangles[:, i]] + vertices[triangles[:, (i + 1) % 3]]) / 2
+                                           for i in range(3)]).astype(np.float32)
+    centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
+    directions = targets - centre
+    keep = np.linalg.norm(directions, axis=1) > 0  # a vertex at the very centre gives no direction
+    origins = np.repeat(centre[None].astype(np.float32), int(keep.sum()), axis=0)
+    result = {"rays": int(keep.sum())}
+    for test in ("moller_trumbore", "watertight"):
+        # Every triangle tested for every ray: the count measures the triangle test alone.
+        structure = raylab.build(vertices, triangles, structure="none", triangle_test=test)
+        result[test] = int((~structure.intersect(origins, directions[keep]).hit).sum())
+    scene[LEAK_KEY] = result
+    return result
+
+
 # --- operators -----------------------------------------------------------------------------------
+
+class RAYLAB_OT_level_leak_test(bpy.types.Operator):
+    """Shoot rays from the mesh's centre through its vertices and edges with Möller–Trumbore and with the
+    watertight test, and count the rays that slip out through a closed mesh"""
+    bl_idname = "raylab.level_leak_test"
+    bl_label = "Count Leaking Rays"
+    bl_options = {'REGISTER'}
+
+    def execute(self, context):
+        try:
+            result = leak_test(context.scene)
+        except (LevelError, ValueError) as error:
+            self.report({'ERROR'}, f"raylab: {error}")
+            return {'CANCELLED'}
+        self.report({'INFO'}, f"raylab: of {result['rays']:,} rays, Möller–Trumbore leaked "
+                              f"{result['moller_trumbore']:,}, watertight {result['watertight']:,}")
+        return {'FINISHED'}
+
 
 class RAYLAB_OT_level_open(bpy.types.Operator):
     """Build this level's scene from scratch and switch to it"""
@@ -705,7 +751,7 @@ class RAYLAB_OT_level_swap_mesh(bpy.types.Operator):
         return {'FINISHED'}
 
 
-CLASSES = (RAYLAB_OT_level_open, RAYLAB_OT_level_step, RAYLAB_OT_level_swap_mesh)
+CLASSES = (RAYLAB_OT_level_open, RAYLAB_OT_level_step, RAYLAB_OT_level_swap_mesh, RAYLAB_OT_level_leak_test)
 
 
 def register():
