@@ -13,7 +13,7 @@ inline bool closest_in_triangles(const TriangleMesh& mesh, const TriangleTester&
   bool found = false;
   for (uint32_t i = 0; i < count; ++i) {
     const uint32_t tri = index(i);
-    TriangleHit th;
+    TriangleHit th{};
     const bool hit = tester(mesh, tri, best.t, th);
     record.triangle(tri, hit);
     if (hit && closer(th, tri, best)) {
@@ -32,7 +32,7 @@ inline bool any_in_triangles(const TriangleMesh& mesh, const TriangleTester& tes
                              IndexFn index, float tmax, Recorder& record) {
   for (uint32_t i = 0; i < count; ++i) {
     const uint32_t tri = index(i);
-    TriangleHit th;
+    TriangleHit th{};
     const bool hit = tester(mesh, tri, tmax, th);
     record.triangle(tri, hit);
     if (hit) return true;
