@@ -419,7 +419,7 @@ def _frame_views(window, level):
         if area.type != 'VIEW_3D':
             continue
         space = area.spaces.active
-        space.clip_start, space.clip_end = 0.01 * s, 1000.0 * s
+        space.clip_start, space.clip_end = 0.1 * s, 100.0 * s
         view = space.region_3d
         view.view_perspective = 'PERSP'
         view.view_location = (0.0, 0.0, 0.0)
