@@ -52,3 +52,17 @@ TEST(TriangleIntersection, RayThroughSharedEdgeHitsAtLeastOneTriangle) {
   const bool second = intersect_watertight(w, a, c, d, 0, kInfinity, h);
   EXPECT_TRUE(first || second);
 }
+
+// A direction component of -0 must behave as +0: the ray lies in the box's face plane either way.
+TEST(BoxIntersection, NegativeZeroDirectionWithOriginOnFacePlaneHitsBothBoxesSharingThePlane) {
+  const Bounds below({-1, -1, -1}, {0, 1, 1});  // x <= 0
+  const Bounds above({0, -1, -1}, {1, 1, 1});   // x >= 0
+  for (float zero : {0.0f, -0.0f}) {
+    Ray ray;
+    ray.origin = {0.0f, 0.0f, -5.0f};
+    ray.direction = {zero, 0.1f, 1.0f};
+    float t = -1;
+    EXPECT_TRUE(intersect_box(below, BoxRay(ray), ray.tmax, t)) << "direction x = " << zero;
+    EXPECT_TRUE(intersect_box(above, BoxRay(ray), ray.tmax, t)) << "direction x = " << zero;
+  }
+}

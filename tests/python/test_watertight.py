@@ -95,3 +95,16 @@ def test_no_ray_escapes_a_closed_mesh(name, structure):
     leaks = int((~leaky.intersect(origins, directions).hit).sum())
     print(f"\n{name} {structure}: moller_trumbore lets {leaks} of {len(origins)} rays escape "
           f"(watertight: 0)")
+
+
+@pytest.mark.parametrize("structure", raylab.STRUCTURES)
+def test_no_ray_escapes_from_the_centre_lying_on_every_split_plane(structure):
+    """From the sphere's centre, which lies on the octree's and the BVH's split planes, rays through
+    every vertex: many have direction components of exactly 0 or -0, so they lie in box face planes."""
+    vertices, triangles = load("sphere")
+    centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
+    directions = (vertices - centre).astype(np.float32)
+    assert (np.signbit(directions) & (directions == 0)).any(), "the case needs -0 components"
+    origins = np.broadcast_to(centre, directions.shape).astype(np.float32)
+    h = raylab.build(vertices, triangles, structure).intersect(origins, directions)
+    assert h.hit.all(), f"{int((~h.hit).sum())} rays escaped through {structure}"

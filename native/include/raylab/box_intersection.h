@@ -8,14 +8,17 @@
 namespace raylab {
 
 // The per-ray part of the slab test. A zero direction component gives an infinite reciprocal
-// (IEEE), so axis-parallel rays need no special case.
+// (IEEE), so axis-parallel rays need no special case. Adding +0 turns a -0 component into +0: the
+// reciprocal is then +inf, never -inf, which keeps the NaN of an origin on a slab plane (0 * inf)
+// on the side that intersect_box ignores (with -inf the far distance of that slab became -inf and
+// a ray lying in a face plane missed the box).
 struct BoxRay {
   glm::vec3 origin;
   glm::vec3 inv_dir;
   float tmin, tmax;
 
   explicit BoxRay(const Ray& ray)
-      : origin(ray.origin), inv_dir(1.0f / ray.direction), tmin(ray.tmin), tmax(ray.tmax) {}
+      : origin(ray.origin), inv_dir(1.0f / (ray.direction + 0.0f)), tmin(ray.tmin), tmax(ray.tmax) {}
 };
 
 // pbrt's gamma(3) bound: widening the far distance by 1 + 2*gamma(3) (about 2 ulp) makes the test
