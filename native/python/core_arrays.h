@@ -9,6 +9,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <type_traits>
 #include <vector>
 
 namespace raylab::python {
@@ -35,6 +36,38 @@ py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded);
 py::dict stats_to_dict(const TraversalStats& stats);
 
 const char* triangle_test_name(TriangleTest test);
+
+// The batch queries of the Python API, for a Structure or a Scene (both have intersect_closest and
+// intersect_any): arrays in, the GIL released while both cores trace, arrays out.
+template <class Target>
+py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, double tmin, double tmax,
+                        bool count) {
+  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
+  std::vector<Hit> hits(rays.size());
+  TraversalStats stats;
+  {
+    py::gil_scoped_release release;
+    intersect_closest(target, rays, hits, count ? &stats : nullptr);
+  }
+  py::dict d = hits_to_dict(hits, std::is_same_v<Target, Structure>);
+  d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
+  return d;
+}
+
+template <class Target>
+py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, double tmin, double tmax,
+                       bool count) {
+  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
+  std::vector<uint8_t> result(rays.size());
+  TraversalStats stats;
+  {
+    py::gil_scoped_release release;
+    intersect_any(target, rays, result, count ? &stats : nullptr);
+  }
+  py::dict d = occlusion_to_dict(result);
+  d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
+  return d;
+}
 
 void bind_scene(py::module_& m);  // core_scene.cpp
 

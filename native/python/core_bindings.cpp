@@ -45,34 +45,6 @@ py::tuple mesh_to_arrays(const TriangleMesh& mesh) {
   return py::make_tuple(v, t);
 }
 
-py::dict intersect(const Structure& s, py::handle origins, py::handle directions, double tmin, double tmax,
-                   bool count) {
-  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<Hit> hits(rays.size());
-  TraversalStats stats;
-  {
-    py::gil_scoped_release release;
-    intersect_closest(s, rays, hits, count ? &stats : nullptr);
-  }
-  py::dict d = hits_to_dict(hits, true);
-  d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
-  return d;
-}
-
-py::dict occluded(const Structure& s, py::handle origins, py::handle directions, double tmin, double tmax,
-                  bool count) {
-  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<uint8_t> result(rays.size());
-  TraversalStats stats;
-  {
-    py::gil_scoped_release release;
-    intersect_any(s, rays, result, count ? &stats : nullptr);
-  }
-  py::dict d = occlusion_to_dict(result);
-  d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
-  return d;
-}
-
 py::array_t<float> rows(const std::vector<glm::vec3>& points) {
   py::array_t<float> a({py::ssize_t(points.size()), py::ssize_t(3)});
   float* p = a.mutable_data();
@@ -169,9 +141,9 @@ void bind_core(py::module_& m) {
                              [](const Structure& s) { return triangle_test_name(s.settings().triangle_test); })
       .def_property_readonly("mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
                              "A copy of the mesh: (vertices, triangles).")
-      .def("intersect", &intersect, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
+      .def("intersect", &intersect_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false)
-      .def("occluded", &occluded, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
+      .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false)
       .def("boxes", &boxes)
       .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0,

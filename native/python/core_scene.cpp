@@ -3,10 +3,6 @@
 
 #include "raylab/scene.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
-#include <tbb/parallel_for.h>
-
 #include <cmath>
 #include <limits>
 
@@ -31,47 +27,6 @@ uint32_t id(int64_t value, size_t count, const char* what) {
     throw std::invalid_argument("unknown " + std::string(what) + " id " + std::to_string(value) + ": the scene has " +
                                 std::to_string(count));
   return uint32_t(value);
-}
-
-// The scene's world-space queries over many rays, in parallel; per-thread counters summed at the end.
-template <class Query>
-TraversalStats for_each_ray(size_t n, bool count, Query query) {
-  tbb::combinable<TraversalStats> local;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-    TraversalStats* stats = count ? &local.local() : nullptr;
-    for (size_t i = r.begin(); i != r.end(); ++i) query(i, stats);
-  });
-  TraversalStats total;
-  local.combine_each([&](const TraversalStats& s) { total += s; });
-  return total;
-}
-
-py::dict intersect(const Scene& scene, py::handle origins, py::handle directions, double tmin, double tmax,
-                   bool count) {
-  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<Hit> hits(rays.size());
-  TraversalStats stats;
-  {
-    py::gil_scoped_release release;
-    stats = for_each_ray(rays.size(), count, [&](size_t i, TraversalStats* s) { scene.closest(rays[i], hits[i], s); });
-  }
-  py::dict d = hits_to_dict(hits, false);
-  d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
-  return d;
-}
-
-py::dict occluded(const Scene& scene, py::handle origins, py::handle directions, double tmin, double tmax,
-                  bool count) {
-  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<uint8_t> result(rays.size());
-  TraversalStats stats;
-  {
-    py::gil_scoped_release release;
-    stats = for_each_ray(rays.size(), count, [&](size_t i, TraversalStats* s) { result[i] = scene.any(rays[i], s); });
-  }
-  py::dict d = occlusion_to_dict(result);
-  d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
-  return d;
 }
 
 }  // namespace
@@ -125,9 +80,9 @@ void bind_scene(py::module_& m) {
              py::gil_scoped_release release;
              s.commit();
            })
-      .def("intersect", &intersect, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
+      .def("intersect", &intersect_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false)
-      .def("occluded", &occluded, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
+      .def("occluded", &occluded_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false)
       .def_property_readonly("mesh_count", &Scene::mesh_count)
       .def_property_readonly("instance_count", &Scene::instance_count)

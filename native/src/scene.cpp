@@ -1,5 +1,6 @@
 #include "raylab/scene.h"
 
+#include "raylab/batch.h"
 #include "raylab/box_intersection.h"
 #include "raylab/bvh.h"
 #include "raylab/bvh_build.h"
@@ -329,5 +330,16 @@ size_t Scene::memory_bytes() const {
 }
 
 double Scene::build_seconds() const { return impl_->build_seconds; }
+
+void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats) {
+  if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
+  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) { scene.closest(rays[i], hits[i], st); });
+}
+
+void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
+                   TraversalStats* stats) {
+  if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
+  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); });
+}
 
 }  // namespace raylab

@@ -1,13 +1,11 @@
 #include "raylab/structure.h"
 
 #include "raylab/aabb_structure.h"
+#include "raylab/batch.h"
 #include "raylab/brute_force.h"
 #include "raylab/bvh.h"
 #include "raylab/octree.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
-#include <tbb/parallel_for.h>
 
 #include <chrono>
 
@@ -63,27 +61,6 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
   s->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;
 }
-
-namespace {
-
-// Runs `query(i, stats_or_null)` over all rays in parallel, summing per-thread counters at the end.
-template <class Query>
-void for_each_ray(size_t n, TraversalStats* stats, Query query) {
-  if (!stats) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t i = r.begin(); i != r.end(); ++i) query(i, nullptr);
-    });
-    return;
-  }
-  tbb::combinable<TraversalStats> local;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-    TraversalStats& s = local.local();
-    for (size_t i = r.begin(); i != r.end(); ++i) query(i, &s);
-  });
-  local.combine_each([&](const TraversalStats& s) { *stats += s; });
-}
-
-}  // namespace
 
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
                        TraversalStats* stats) {

@@ -57,4 +57,9 @@ class Scene {
   std::unique_ptr<Impl> impl_;
 };
 
+// Batch queries over a committed scene, parallel over rays (TBB). `stats` may be null.
+void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats);
+void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
+                   TraversalStats* stats);
+
 }  // namespace raylab
