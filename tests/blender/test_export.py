@@ -14,12 +14,6 @@ from raylab.blender import scene_export
 WIDTH, HEIGHT = 96, 72
 
 
-@pytest.fixture(scope="module", autouse=True)
-def addon_registered():
-    if not hasattr(bpy.types.Scene, "raylab_render"):
-        raylab.register()
-
-
 def clear_scene():
     scene = bpy.context.scene
     for obj in list(bpy.data.objects):   # also those only in unlinked collections: names stay as created

@@ -25,9 +25,7 @@ LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.j
 
 
 @pytest.fixture(scope="module", autouse=True)
-def addon_registered():
-    if not hasattr(bpy.types.Scene, "raylab"):
-        raylab.register()
+def restore_scene_after_levels():
     before = bpy.context.window.scene
     yield
     # Leave Blender as the other test files expect it: their scene back, no level scenes.

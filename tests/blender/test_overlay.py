@@ -16,21 +16,6 @@ import raylab  # noqa: E402
 from raylab.blender import overlay, structure_cache  # noqa: E402
 
 
-def structure_available(name):
-    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
-    try:
-        raylab.build(V, np.array([[0, 1, 2]], dtype=np.uint32), structure=name)
-        return True
-    except (ValueError, RuntimeError):
-        return False
-
-
-@pytest.fixture(scope="module", autouse=True)
-def addon_registered():
-    if not hasattr(bpy.types.Scene, "raylab"):
-        raylab.register()
-
-
 @pytest.fixture
 def monkey_scene():
     scene = bpy.context.scene
@@ -75,8 +60,6 @@ def test_world_aabb_follows_a_rotated_object(monkey_scene):
 
 @pytest.mark.parametrize("structure", ["octree", "bvh"])
 def test_moving_the_object_rebuilds_nothing(monkey_scene, structure):
-    if not structure_available(structure):
-        pytest.skip(f"the core has no {structure} yet")
     scene, monkey = monkey_scene
     scene.raylab.structure = structure
     first = overlay.line_geometry(monkey, scene)
@@ -104,8 +87,6 @@ def test_moving_the_object_rebuilds_nothing(monkey_scene, structure):
 
 
 def test_filters_pick_depths_and_leaves(monkey_scene):
-    if not structure_available("octree"):
-        pytest.skip("the core has no octree yet")
     scene, monkey = monkey_scene
     settings = scene.raylab
     settings.structure, settings.max_depth = "octree", 4

@@ -27,24 +27,6 @@ CASES = {
 }
 
 
-def structure_available(name):
-    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
-    try:
-        raylab.build(V, np.array([[0, 1, 2]], dtype=np.uint32), structure=name)
-        return True
-    except (ValueError, RuntimeError):
-        return False
-
-
-needs_octree = pytest.mark.skipif(not structure_available("octree"), reason="the core has no octree yet")
-
-
-@pytest.fixture(scope="module", autouse=True)
-def addon_registered():
-    if not hasattr(bpy.types.Scene, "raylab"):
-        raylab.register()
-
-
 @pytest.fixture
 def torus_scene():
     """A moved, turned and scaled torus, the octree of VRT's octree level 2, and the ray object."""
@@ -82,7 +64,6 @@ def core_story(torus, origin, direction, settings):
     return s, s.story(np.array(origin, dtype=np.float32), np.array(direction, dtype=np.float32))
 
 
-@needs_octree
 @pytest.mark.parametrize("case", list(CASES))
 def test_probe_tells_the_cores_story(torus_scene, case):
     scene, torus, ray = torus_scene
@@ -116,7 +97,6 @@ def test_probe_tells_the_cores_story(torus_scene, case):
     assert f"triangles tested {result['triangles_tested']} / {result['triangle_total']}" in text[1]
 
 
-@needs_octree
 def test_moving_the_ray_object_changes_the_status(torus_scene):
     scene, torus, ray = torus_scene
     aim(ray, torus, *CASES["hit_object"])
@@ -146,7 +126,6 @@ def test_no_ray_source_gives_no_status(torus_scene):
     assert "No ray object" in probe.status_text(scene)[0]
 
 
-@needs_octree
 def test_a_large_fan_classifies_as_the_story_does(torus_scene):
     """Past FAN_STORY_LIMIT rays the fan uses one intersect call and counted rays; every ray must
     still get the status its own story gives."""

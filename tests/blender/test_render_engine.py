@@ -14,12 +14,6 @@ from raylab.blender import default_scene, render_engine, scene_export
 RESOLUTION = (120, 90)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def addon_registered():
-    if not hasattr(bpy.types.Scene, "raylab_render"):
-        raylab.register()
-
-
 @pytest.fixture
 def demo_scene():
     scene = bpy.context.scene

@@ -19,15 +19,6 @@ sys.path.insert(0, os.path.join(ROOT, "addon"))
 import raylab  # noqa: E402
 
 
-def structure_available(name):
-    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
-    try:
-        raylab.build(V, np.array([[0, 1, 2]], dtype=np.uint32), structure=name)
-        return True
-    except (ValueError, RuntimeError):
-        return False
-
-
 @pytest.fixture(scope="module")
 def empty_blend(tmp_path_factory):
     """A saved default scene: opening a file keeps the splash screen out of the screenshots."""
@@ -143,8 +134,6 @@ def check_hit_dot(report, off, on):
 
 @pytest.mark.parametrize("structure", ["aabb", "octree", "bvh"])
 def test_overlay_and_probe_in_the_viewport(structure, empty_blend):
-    if not structure_available(structure):
-        pytest.skip(f"the core has no {structure} yet")
     report, off, on = shoot(structure, empty_blend)
     assert report["status"] == "hit_object"  # the ray object aims at the sphere
     check_boxes_drawn(report, off)
