@@ -147,13 +147,19 @@ class Scene:
     def __init__(self, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight", memory_budget=None):
         self.native = _raylab.Scene(structure, max_depth, leaf_size, triangle_test, memory_budget)
 
-    def add_mesh(self, vertices, triangles):
-        """Adds a mesh ((V,3) vertices, (T,3) triangles, validated as in build()); returns its id."""
-        return self.native.add_mesh(vertices, triangles)
+    def add_mesh(self, vertices, triangles, normals=None):
+        """Adds a mesh ((V,3) vertices, (T,3) triangles, validated as in build()); returns its id.
 
-    def replace_mesh(self, mesh, vertices, triangles):
-        """Replaces mesh `mesh`: only its own structure is rebuilt at the next commit()."""
-        self.native.replace_mesh(mesh, vertices, triangles)
+        normals, for smooth shading in render(): (T,3,3) object-space normals of each triangle's
+        corners, or (V,3) per-vertex normals; None shades flat. Only the renderer reads them; a wrong
+        shape or a NaN / infinite entry raises ValueError.
+        """
+        return self.native.add_mesh(vertices, triangles, normals)
+
+    def replace_mesh(self, mesh, vertices, triangles, normals=None):
+        """Replaces mesh `mesh` (and its normals, as add_mesh): only its own structure is rebuilt at
+        the next commit()."""
+        self.native.replace_mesh(mesh, vertices, triangles, normals)
 
     def add_instance(self, mesh, matrix, material=0):
         """Adds an instance of mesh `mesh` with a (4,4) row-major object-to-world matrix; returns its id."""

@@ -29,6 +29,35 @@ uint32_t id(int64_t value, size_t count, const char* what) {
   return uint32_t(value);
 }
 
+// Per-corner normals (T,3,3) or per-vertex normals (V,3), expanded to corners, for `mesh`; the
+// scene validates their count and values.
+std::vector<glm::vec3> corner_normals_from_array(const TriangleMesh& mesh, py::handle normals) {
+  auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(normals);
+  const size_t t = mesh.triangles.size(), v = mesh.vertices.size();
+  const bool per_corner = a && a.ndim() == 3 && size_t(a.shape(0)) == t && a.shape(1) == 3 && a.shape(2) == 3;
+  const bool per_vertex = a && a.ndim() == 2 && size_t(a.shape(0)) == v && a.shape(1) == 3;
+  if (!per_corner && !per_vertex)
+    throw std::invalid_argument("normals must be a (T, 3, 3) array of per-corner normals (T = " + std::to_string(t) +
+                                ") or a (V, 3) array of per-vertex normals (V = " + std::to_string(v) + ")");
+  const float* data = a.data();
+  std::vector<glm::vec3> corners(3 * t);
+  for (size_t i = 0; i < 3 * t; ++i) {
+    const size_t row = per_corner ? i : mesh.triangles[i / 3][int(i % 3)];
+    corners[i] = glm::vec3(data[3 * row], data[3 * row + 1], data[3 * row + 2]);
+  }
+  validate_shading_normals(mesh, corners);
+  return corners;
+}
+
+// A new mesh with optional smooth normals, checked in full before the scene changes.
+template <class Store>
+auto with_normals(py::handle vertices, py::handle triangles, py::handle normals, Store store) {
+  MeshPtr mesh = mesh_from_arrays(vertices, triangles);
+  std::vector<glm::vec3> corners;
+  if (!normals.is_none()) corners = corner_normals_from_array(*mesh, normals);
+  return store(std::move(mesh), std::move(corners));
+}
+
 }  // namespace
 
 void bind_scene(py::module_& m) {
@@ -43,16 +72,25 @@ void bind_scene(py::module_& m) {
            py::arg("triangle_test") = "watertight", py::arg("memory_budget") = py::none())
       .def(
           "add_mesh",
-          [](Scene& s, py::handle vertices, py::handle triangles) {
-            return s.add_mesh(mesh_from_arrays(vertices, triangles));
+          [](Scene& s, py::handle vertices, py::handle triangles, py::handle normals) {
+            return with_normals(vertices, triangles, normals, [&](MeshPtr m, std::vector<glm::vec3> corners) {
+              const uint32_t mesh = s.add_mesh(std::move(m));
+              if (!corners.empty()) s.set_shading_normals(mesh, std::move(corners));
+              return mesh;
+            });
           },
-          py::arg("vertices"), py::arg("triangles"))
+          py::arg("vertices"), py::arg("triangles"), py::arg("normals") = py::none())
       .def(
           "replace_mesh",
-          [](Scene& s, int64_t mesh, py::handle vertices, py::handle triangles) {
-            s.replace_mesh(id(mesh, s.mesh_count(), "mesh"), mesh_from_arrays(vertices, triangles));
+          [](Scene& s, int64_t mesh, py::handle vertices, py::handle triangles, py::handle normals) {
+            const uint32_t m = id(mesh, s.mesh_count(), "mesh");
+            with_normals(vertices, triangles, normals, [&](MeshPtr replacement, std::vector<glm::vec3> corners) {
+              s.replace_mesh(m, std::move(replacement));
+              if (!corners.empty()) s.set_shading_normals(m, std::move(corners));
+              return m;
+            });
           },
-          py::arg("mesh"), py::arg("vertices"), py::arg("triangles"))
+          py::arg("mesh"), py::arg("vertices"), py::arg("triangles"), py::arg("normals") = py::none())
       .def(
           "add_instance",
           [](Scene& s, int64_t mesh, py::handle matrix, int64_t material) {

@@ -68,10 +68,31 @@ struct PlacedLight {
 
 struct PlacedInstance {
   const TriangleMesh* mesh;
+  const std::vector<glm::vec3>* shading_normals;  // 3 per triangle, object space; null: flat
   const Material* material;
   glm::mat4 transform;      // object to world
   glm::mat3 normal_matrix;  // inverse transpose of its linear part
 };
+
+// The cosine of the light direction `l` to the shading normal `n`, or 0 when the light is behind
+// either it or the geometric normal `ng`: a smooth normal leaning past its face must not let light
+// through the face from behind.
+float light_cosine(const glm::vec3& n, const glm::vec3& ng, const glm::vec3& l) {
+  const float cos_n = glm::dot(n, l);
+  return cos_n > 0.0f && glm::dot(ng, l) > 0.0f ? cos_n : 0.0f;
+}
+
+// The interpolated smooth normal at a hit, in world space, on the side of `nf` (the geometric normal
+// facing the ray); `nf` itself for a flat mesh or a degenerate interpolation.
+glm::vec3 shading_normal(const PlacedInstance& inst, const Hit& hit, const glm::vec3& nf) {
+  if (!inst.shading_normals) return nf;
+  const glm::vec3* corner = inst.shading_normals->data() + 3 * size_t(hit.triangle);
+  glm::vec3 n = inst.normal_matrix * ((1.0f - hit.u - hit.v) * corner[0] + hit.u * corner[1] + hit.v * corner[2]);
+  const float length = glm::length(n);
+  if (!(length > 0.0f) || !std::isfinite(length)) return nf;
+  n /= length;
+  return glm::dot(n, nf) < 0.0f ? -n : n;
+}
 
 class Tracer {
  public:
@@ -112,9 +133,10 @@ class Tracer {
     specular_out += lobe * e;
     return diffuse * glm::one_over_pi<float>() * e;
   }
+  // `n` shades (the Phong terms); the geometric `ng` places the shadow rays and hides lights behind.
   glm::vec3 direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
-                         const glm::vec3& p, const glm::vec3& n, const glm::vec3& v, RenderStats& stats,
-                         PixelRandom& random, glm::vec3& specular) const;
+                         const glm::vec3& p, const glm::vec3& n, const glm::vec3& ng, const glm::vec3& v,
+                         RenderStats& stats, PixelRandom& random, glm::vec3& specular) const;
 
   const Scene& scene_;
   std::vector<PlacedInstance> instances_;
@@ -129,16 +151,16 @@ class Tracer {
 // picture with no extra factor. The sun's strength is irradiance: strength * cos(theta). An area
 // light splits its energy over its samples, each radiating only forwards with an extra cosine.
 glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
-                               const glm::vec3& p, const glm::vec3& n, const glm::vec3& v,
+                               const glm::vec3& p, const glm::vec3& n, const glm::vec3& ng, const glm::vec3& v,
                                RenderStats& stats, PixelRandom& random, glm::vec3& specular) const {
   const Light& light = *pl.light;
   const glm::vec3 radiant = light.color * light.energy;
-  const glm::vec3 origin = offset(p, n);
+  const glm::vec3 origin = offset(p, ng);
   constexpr float kFourPi = 4.0f * glm::pi<float>();
 
   if (light.type == LightType::Sun) {
     const glm::vec3 l = -pl.axis;
-    const float cos_n = glm::dot(n, l);
+    const float cos_n = light_cosine(n, ng, l);
     if (cos_n <= 0.0f) return glm::vec3(0.0f);
     const glm::vec3 e = radiant * cos_n * visibility(origin, l, kInfinity, light.shadows, stats);
     return phong(m, diffuse, n, v, l, e, specular);
@@ -157,7 +179,7 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
         if (!(r2 > 0.0f)) continue;
         const float r = std::sqrt(r2);
         const glm::vec3 l = to_light / r;
-        const float cos_n = glm::dot(n, l), cos_light = glm::dot(pl.axis, -l);
+        const float cos_n = light_cosine(n, ng, l), cos_light = glm::dot(pl.axis, -l);
         if (cos_n <= 0.0f || cos_light <= 0.0f) continue;
         const glm::vec3 e = per_sample * (cos_n * cos_light / r2) * visibility(origin, l, r, light.shadows, stats);
         sum += phong(m, diffuse, n, v, l, e, specular);
@@ -170,7 +192,7 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
   if (!(r2 > 0.0f)) return glm::vec3(0.0f);
   const float r = std::sqrt(r2);
   const glm::vec3 l = to_light / r;
-  const float cos_n = glm::dot(n, l);
+  const float cos_n = light_cosine(n, ng, l);
   if (cos_n <= 0.0f) return glm::vec3(0.0f);
   float factor = cos_n / (kFourPi * r2);
   if (light.type == LightType::Spot) factor *= spot_attenuation(glm::dot(pl.axis, -l), light.spot_size, light.spot_blend);
@@ -190,6 +212,8 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   n = length > 0.0f && std::isfinite(length) ? n / length : -d;
   const bool entering = glm::dot(n, d) < 0.0f;  // against the winding's normal: from outside
   const glm::vec3 nf = entering ? n : -n;        // faces the incoming ray
+  // Smooth shading bends the Phong terms only; offsets, reflection and refraction stay geometric.
+  const glm::vec3 ns = shading_normal(inst, hit, nf);
   // The hit point from the barycentrics, not from origin + t * direction: its rounding error is then
   // relative to the point itself, as the integer-ulp offset assumes. From the ray, the error would be
   // relative to the ray's length and origin, and a far camera would sink points below a floor
@@ -203,7 +227,7 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
 
   glm::vec3 specular(0.0f);
   glm::vec3 local = m.ambient * settings_.ambient * diffuse;
-  for (const PlacedLight& pl : lights_) local += direct_light(pl, m, diffuse, p, nf, v, stats, random, specular);
+  for (const PlacedLight& pl : lights_) local += direct_light(pl, m, diffuse, p, ns, nf, v, stats, random, specular);
 
   const float t = m.transmission;
   glm::vec3 color = specular + (1.0f - t) * (1.0f - kr) * local;
@@ -333,7 +357,7 @@ RenderResult render(const Scene& scene, const CameraSettings& camera_settings, s
     require(inst.material < materials.size(),
             "instance " + std::to_string(i) + " uses material " + std::to_string(inst.material) + " but " +
                 std::to_string(materials.size()) + " materials were given");
-    instances.push_back({&scene.mesh(inst.mesh), &materials[inst.material], inst.transform,
+    instances.push_back({&scene.mesh(inst.mesh), scene.shading_normals(inst.mesh), &materials[inst.material], inst.transform,
                          glm::transpose(glm::inverse(glm::mat3(inst.transform)))});
   }
   const Tracer tracer(scene, std::move(instances), std::move(placed_lights), settings);

@@ -55,6 +55,7 @@ struct Scene::Impl {
     MeshPtr mesh;
     Bounds bounds;  // object space
     std::unique_ptr<Structure> structure;  // null while stale
+    std::vector<glm::vec3> shading_normals;  // 3 per triangle, or empty: flat
   };
   struct InstanceSlot {
     Instance instance;
@@ -226,7 +227,7 @@ uint32_t Scene::add_mesh(MeshPtr mesh) {
   if (!mesh) throw std::invalid_argument("mesh is null");
   mesh->validate();
   const Bounds bounds = mesh->bounds();
-  impl_->meshes.push_back({std::move(mesh), bounds, nullptr});
+  impl_->meshes.push_back({std::move(mesh), bounds, nullptr, {}});
   return uint32_t(impl_->meshes.size() - 1);
 }
 
@@ -237,7 +238,29 @@ void Scene::replace_mesh(uint32_t mesh, MeshPtr replacement) {
   slot.bounds = replacement->bounds();
   slot.mesh = std::move(replacement);
   slot.structure.reset();
+  slot.shading_normals.clear();  // they belonged to the old triangles
   impl_->top_stale = true;  // its instances' world boxes changed
+}
+
+void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec3> corner_normals) {
+  const size_t expected = 3 * mesh.triangles.size();
+  if (corner_normals.size() != expected)
+    throw std::invalid_argument("shading normals: expected 3 per triangle (" + std::to_string(expected) + "), got " +
+                                std::to_string(corner_normals.size()));
+  for (const glm::vec3& n : corner_normals)
+    if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z))
+      throw std::invalid_argument("shading normals have a NaN or infinite entry");
+}
+
+void Scene::set_shading_normals(uint32_t mesh, std::vector<glm::vec3> corner_normals) {
+  Impl::MeshSlot& slot = impl_->mesh_slot(mesh);
+  validate_shading_normals(*slot.mesh, corner_normals);
+  slot.shading_normals = std::move(corner_normals);
+}
+
+const std::vector<glm::vec3>* Scene::shading_normals(uint32_t mesh) const {
+  const Impl::MeshSlot& slot = impl_->mesh_slot(mesh);
+  return slot.shading_normals.empty() ? nullptr : &slot.shading_normals;
 }
 
 uint32_t Scene::add_instance(uint32_t mesh, const glm::mat4& transform, uint32_t material) {

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <random>
 
 using namespace raylab;
@@ -343,4 +344,44 @@ TEST(Renderer, MaterialIndexOutOfRangeThrows) {
   FloorScene g;
   g.settings.super_sampling = 5;
   EXPECT_THROW(g.run(), std::invalid_argument);
+}
+
+TEST(ShadingNormals, AreValidatedKeptBesideTheMeshAndDroppedWithIt) {
+  Scene scene;
+  const uint32_t mesh = scene.add_mesh(quad(1.0f, 0.0f));
+  EXPECT_EQ(scene.shading_normals(mesh), nullptr);
+  EXPECT_THROW(scene.set_shading_normals(mesh, std::vector<glm::vec3>(5, glm::vec3(0, 0, 1))), std::invalid_argument);
+  std::vector<glm::vec3> bad(6, glm::vec3(0, 0, 1));
+  bad[4].y = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(scene.set_shading_normals(mesh, bad), std::invalid_argument);
+  EXPECT_THROW(scene.set_shading_normals(mesh + 1, std::vector<glm::vec3>(6)), std::invalid_argument);
+  scene.set_shading_normals(mesh, std::vector<glm::vec3>(6, glm::vec3(0, 0, 1)));
+  ASSERT_NE(scene.shading_normals(mesh), nullptr);
+  EXPECT_EQ(scene.shading_normals(mesh)->size(), 6u);
+  scene.replace_mesh(mesh, quad(2.0f, 0.0f));
+  EXPECT_EQ(scene.shading_normals(mesh), nullptr);  // they described the old triangles
+}
+
+TEST(ShadingNormals, BendTheLightingButNotTheGeometry) {
+  FloorScene flat;
+  const RenderResult f = flat.run();
+  FloorScene tilted;
+  const glm::vec3 n = glm::normalize(glm::vec3(1, 0, 1));
+  tilted.scene.set_shading_normals(0, std::vector<glm::vec3>(6, n));
+  const RenderResult t = tilted.run();
+  // Pixel (16, 16) sees floor point (0.0625, -0.0625, 0): the cosine to the light is now the tilted one.
+  const glm::vec3 l = glm::normalize(glm::vec3(0, 0, 3) - glm::vec3(0.0625f, -0.0625f, 0.0f));
+  EXPECT_NEAR(pixel(t, 16, 16).x, pixel(f, 16, 16).x * glm::dot(n, l) / l.z, 1e-5f);
+  EXPECT_EQ(t.instance, f.instance);
+  EXPECT_EQ(t.distance, f.distance);
+  EXPECT_EQ(t.stats.rays_shadow, f.stats.rays_shadow);
+}
+
+TEST(ShadingNormals, DoNotLetLightThroughTheFaceFromBehind) {
+  FloorScene f;
+  // The light is below the floor but in front of the leaning shading normal: the floor stays dark.
+  f.scene.set_shading_normals(0, std::vector<glm::vec3>(6, glm::normalize(glm::vec3(1, 0, 0.1f))));
+  f.lights[0].matrix_world = glm::translate(glm::mat4(1.0f), glm::vec3(10, 0, -0.5f));
+  f.settings.shadows = false;
+  EXPECT_EQ(pixel(f.run(), 16, 16), glm::vec3(0.0f));
 }

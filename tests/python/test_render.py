@@ -227,3 +227,84 @@ def test_shadows_stay_right_far_away_and_small_with_the_robust_offset(name, worl
     if name.startswith("translated"):
         # 1e-4 is below half an ulp of 1e4: the offset rounds away and surfaces shadow themselves.
         assert fixed < reference - 0.1
+
+
+def uv_sphere(segments=16, rings=8):
+    """A coarse unit UV sphere, outward-wound: (V,3) vertices (their own normals), (T,3) triangles."""
+    theta = np.linspace(0.0, math.pi, rings + 1)[1:-1]
+    phi = np.linspace(0.0, 2.0 * math.pi, segments, endpoint=False)
+    ring = np.stack([np.outer(np.sin(theta), np.cos(phi)), np.outer(np.sin(theta), np.sin(phi)),
+                     np.repeat(np.cos(theta)[:, None], segments, 1)], -1).reshape(-1, 3)
+    vertices = np.vstack([[0.0, 0.0, 1.0], ring, [0.0, 0.0, -1.0]]).astype(np.float32)
+    south = len(vertices) - 1
+    triangles = []
+    for s in range(segments):
+        n = (s + 1) % segments
+        triangles.append([0, 1 + s, 1 + n])
+        for r in range(rings - 2):
+            a, b = 1 + r * segments + s, 1 + r * segments + n
+            triangles += [[a, a + segments, b + segments], [a, b + segments, b]]
+        last = 1 + (rings - 2) * segments
+        triangles.append([last + s, south, last + n])
+    return vertices, np.array(triangles, np.uint32)
+
+
+def face_normals(vertices, triangles):
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    n = np.cross(b - a, c - a)
+    return np.repeat((n / np.linalg.norm(n, axis=1, keepdims=True))[:, None, :], 3, axis=1).astype(np.float32)
+
+
+def render_sphere(normals, structure="bvh"):
+    """A lone sphere lit from the upper left, 96 x 96, with the given shading normals."""
+    scene = raylab.Scene(structure=structure)
+    scene.add_instance(scene.add_mesh(*uv_sphere(), normals=normals), scaling(1.5))
+    scene.commit()
+    camera = dict(type="PERSP", matrix_world=look_at((0.0, -8.0, 0.5), (0.0, 0.0, 0.0)), lens=50.0,
+                  resolution_x=96, resolution_y=96)
+    lights = [dict(type="POINT", color=(1.0, 1.0, 1.0), energy=1000.0, matrix_world=translation((-4.0, -5.0, 3.0)))]
+    materials = [dict(diffuse=(0.8, 0.8, 0.8), specular=0.0)]
+    return raylab.render(scene, camera, lights, materials, dict(ambient=(0.0, 0.0, 0.0)))
+
+
+def largest_step_across(result):
+    """The largest brightness change between neighbouring sphere pixels on the middle row."""
+    row = result.image[48, :, :3].mean(axis=1)
+    on_sphere = np.flatnonzero(result.instance[48] >= 0)
+    inner = row[on_sphere[1]:on_sphere[-1]]  # off the silhouette, where the background would step
+    return np.abs(np.diff(inner)).max()
+
+
+def test_smooth_normals_render_a_sphere_without_facets():
+    vertices, triangles = uv_sphere()
+    flat = render_sphere(None)
+    smooth = render_sphere(vertices)  # a unit sphere's vertex is its own normal
+    corners = render_sphere(vertices[triangles])  # the same normals given per corner
+    assert np.array_equal(corners.image, smooth.image)
+    assert np.array_equal(smooth.instance, flat.instance)  # the shape is the flat mesh's
+    # Flat facets show as steps between neighbours; smooth shading leaves a gentle gradient.
+    assert largest_step_across(smooth) < 0.35 * largest_step_across(flat)
+    for structure in raylab.STRUCTURES:
+        assert np.array_equal(render_sphere(vertices, structure).image, smooth.image), structure
+
+
+def test_face_normals_render_as_flat_shading():
+    vertices, triangles = uv_sphere()
+    flat = render_sphere(None)
+    given = render_sphere(face_normals(vertices, triangles))
+    assert np.allclose(given.image, flat.image, atol=1e-5)
+
+
+def test_bad_normals_raise_value_error():
+    vertices, triangles = uv_sphere()
+    scene = raylab.Scene()
+    bad = np.array(vertices[triangles])
+    bad[3, 1, 2] = np.nan
+    for normals, message in [(vertices[:-1], "per-vertex"), (vertices[triangles][:-1], "per-corner"),
+                             (np.zeros((len(triangles), 3, 2)), "per-corner"), (bad, "NaN")]:
+        with pytest.raises(ValueError, match=message):
+            scene.add_mesh(vertices, triangles, normals=normals)
+    assert scene.mesh_count == 0  # a rejected mesh is not added
+    mesh = scene.add_mesh(vertices, triangles)
+    with pytest.raises(ValueError, match="NaN"):
+        scene.replace_mesh(mesh, vertices, triangles, normals=bad)

@@ -27,7 +27,11 @@ class Scene {
   Scene& operator=(Scene&&) noexcept;
 
   uint32_t add_mesh(MeshPtr mesh);  // validates; returns the mesh id
-  void replace_mesh(uint32_t mesh, MeshPtr replacement);
+  void replace_mesh(uint32_t mesh, MeshPtr replacement);  // drops the mesh's shading normals
+  // Smooth shading for the renderer: 3 object-space normals per triangle (its corners, in winding
+  // order), kept beside the mesh so the structures never see them. Validated as below.
+  void set_shading_normals(uint32_t mesh, std::vector<glm::vec3> corner_normals);
+  const std::vector<glm::vec3>* shading_normals(uint32_t mesh) const;  // null: flat (face normals)
   // Throws std::invalid_argument on an unknown mesh id or a singular / non-finite transform.
   uint32_t add_instance(uint32_t mesh, const glm::mat4& transform, uint32_t material = 0);
   void set_transform(uint32_t instance, const glm::mat4& transform);
@@ -56,6 +60,9 @@ class Scene {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// Throws std::invalid_argument unless `corner_normals` holds exactly 3 finite normals per triangle of `mesh`.
+void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec3> corner_normals);
 
 // Batch queries over a committed scene, parallel over rays (TBB). `stats` may be null.
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats);
