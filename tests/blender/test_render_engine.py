@@ -110,3 +110,30 @@ def test_comparison_operator_measures_all_four_structures(demo_scene):
     tests = {structure: table[structure]["triangle_tests"] for structure in raylab.STRUCTURES}
     assert tests["none"] > tests["aabb"] > max(tests["octree"], tests["bvh"])
     assert table["none"]["memory_bytes"] < min(table["octree"]["memory_bytes"], table["bvh"]["memory_bytes"])
+
+
+
+def test_shade_smooth_renders_a_uv_sphere_without_facets(demo_scene):
+    for name in ("Goat Head", "Ground"):
+        bpy.data.objects.remove(demo_scene.objects[name])
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8, radius=1.5, location=(0.0, 0.0, 1.5))
+    sphere = bpy.context.active_object
+    sphere.color = (0.8, 0.8, 0.8, 1.0)   # grey: its unlit side then differs from the background
+    mesh = sphere.data
+    background = np.array(scene_export.world_colour(demo_scene.world))
+
+    def largest_step_across(pixels):
+        """The largest brightness change between neighbouring sphere pixels on its widest row."""
+        on_sphere = np.abs(pixels[..., :3] - background).max(axis=2) > 1e-3
+        row = int(on_sphere.sum(axis=1).argmax())
+        columns = np.flatnonzero(on_sphere[row])
+        inner = pixels[row, columns[1]:columns[-1], :3].mean(axis=1)  # off the silhouette's step
+        return np.abs(np.diff(inner)).max(), on_sphere
+
+    flat_step, flat_silhouette = largest_step_across(render_f12(demo_scene))
+    mesh.polygons.foreach_set("use_smooth", np.ones(len(mesh.polygons), bool))
+    mesh.update()
+    smooth_step, smooth_silhouette = largest_step_across(render_f12(demo_scene))
+    assert smooth_silhouette.sum() > 500
+    assert np.array_equal(smooth_silhouette, flat_silhouette)   # the same triangles, only shaded smooth
+    assert smooth_step < 0.35 * flat_step, (smooth_step, flat_step)

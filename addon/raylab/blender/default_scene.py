@@ -15,8 +15,15 @@ GOAT_PATH = os.path.join(os.path.dirname(raylab.__file__), "meshes", "goathead.o
 GOAT_SCALE = 0.25
 
 
-def mesh_from_arrays(name, vertices, triangles):
-    """A new bpy mesh of (V,3) vertices and (T,3) triangles, filled with foreach_set (no Python loop)."""
+# Faces meeting at a sharper angle keep their edge under smooth shading (Blender's auto smooth).
+SMOOTH_ANGLE = math.radians(60.0)
+
+
+def mesh_from_arrays(name, vertices, triangles, smooth=False):
+    """A new bpy mesh of (V,3) vertices and (T,3) triangles, filled with foreach_set (no Python loop).
+
+    smooth: Shade Smooth with auto smooth at SMOOTH_ANGLE, as a curved scanned mesh is meant to look.
+    """
     mesh = bpy.data.meshes.new(name)
     mesh.vertices.add(len(vertices))
     mesh.vertices.foreach_set("co", np.ascontiguousarray(vertices, np.float32).ravel())
@@ -25,6 +32,10 @@ def mesh_from_arrays(name, vertices, triangles):
     mesh.polygons.add(len(triangles))
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
     mesh.polygons.foreach_set("loop_total", np.full(len(triangles), 3, np.int32))
+    if smooth:
+        mesh.polygons.foreach_set("use_smooth", np.ones(len(triangles), bool))
+        mesh.use_auto_smooth = True
+        mesh.auto_smooth_angle = SMOOTH_ANGLE
     mesh.update()
     mesh.validate()
     return mesh
@@ -54,7 +65,7 @@ def build_default_scene(scene, resolution=(320, 240)):
     for obj in list(scene.objects):
         bpy.data.objects.remove(obj)
     vertices, triangles = raylab.load_mesh(GOAT_PATH)
-    goat = _add_object(scene, "Goat Head", mesh_from_arrays("goathead", vertices, triangles),
+    goat = _add_object(scene, "Goat Head", mesh_from_arrays("goathead", vertices, triangles, smooth=True),
                        # The OBJ is Y-up: stand it up in Blender's Z-up world, turned three-quarters to the camera.
                        location=(0.0, 0.0, -float(vertices[:, 1].min()) * GOAT_SCALE),
                        rotation=(math.pi / 2, 0.0, math.radians(35.0)))

@@ -356,7 +356,7 @@ def _look_at(location, target):
 
 def _set_mesh(obj, vertices, triangles, size, source, credit):
     old = obj.data
-    mesh = mesh_from_arrays(f"level {source}", normalised(vertices, size), triangles)
+    mesh = mesh_from_arrays(f"level {source}", normalised(vertices, size), triangles, smooth=True)
     for material in old.materials:
         mesh.materials.append(material)
     obj.data = mesh

@@ -32,6 +32,7 @@ class Instance:
 @dataclass
 class ExportedScene:
     meshes: list = field(default_factory=list)       # [(V (n,3) float32, T (m,3) uint32)]
+    normals: list = field(default_factory=list)      # per mesh: (m,3,3) float32 corner normals, object space
     instances: list = field(default_factory=list)    # [Instance]
     materials: list = field(default_factory=list)    # renderer material dicts
     lights: list = field(default_factory=list)       # renderer light dicts
@@ -61,6 +62,7 @@ def export_scene(depsgraph):
                     continue
                 mesh_index[key] = len(exported.meshes)
                 exported.meshes.append(arrays)
+                exported.normals.append(corner_normals(obj.data))
             material = _material_slot(obj, material_index, exported.materials)
             exported.instances.append(Instance(mesh_index[key], np.array(instance.matrix_world, np.float64),
                                                material, obj.original.name))
@@ -107,6 +109,16 @@ def _mesh_arrays(mesh, object_name):
     triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
     mesh.loop_triangles.foreach_get("vertices", triangles)
     return vertices.reshape(-1, 3), triangles.astype(np.uint32).reshape(-1, 3)
+
+
+def corner_normals(mesh):
+    """(T,3,3) normals of the loop triangles' corners as Blender shades them: Shade Smooth, Flat (the
+    face normal at each corner) and auto smooth's sharp edges. Needs calc_loop_triangles() first."""
+    mesh.calc_normals_split()
+    normals = np.empty(len(mesh.loop_triangles) * 9, np.float32)
+    mesh.loop_triangles.foreach_get("split_normals", normals)
+    # A degenerate face can give a non-finite normal: zero makes the renderer shade it flat.
+    return np.nan_to_num(normals, nan=0.0, posinf=0.0, neginf=0.0).reshape(-1, 3, 3)
 
 
 def _material_slot(obj, material_index, materials):
@@ -194,7 +206,8 @@ def world_colour(world):
 def build_scene(exported, structure="bvh", max_depth=6, leaf_size=8):
     """A committed raylab.Scene of the export, and {raylab instance id: object name}."""
     scene = raylab.Scene(structure=structure, max_depth=max_depth, leaf_size=leaf_size)
-    mesh_ids = [scene.add_mesh(vertices, triangles) for vertices, triangles in exported.meshes]
+    mesh_ids = [scene.add_mesh(vertices, triangles, normals=normals)
+                for (vertices, triangles), normals in zip(exported.meshes, exported.normals)]
     objects = {}
     for instance in exported.instances:
         instance_id = scene.add_instance(mesh_ids[instance.mesh], instance.matrix, material=instance.material)
