@@ -37,36 +37,45 @@ py::dict stats_to_dict(const TraversalStats& stats);
 
 const char* triangle_test_name(TriangleTest test);
 
-// The batch queries of the Python API, for a Structure or a Scene (both have intersect_closest and
-// intersect_any): arrays in, the GIL released while both cores trace, arrays out.
-template <class Target>
-py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, double tmin, double tmax,
-                        bool count) {
+// A batch query: rays from the arrays, `trace(rays, results, stats)` with the GIL released while both
+// cores trace, then the results as a dict of arrays plus "stats" (None unless `count`).
+template <class Result, class Trace, class ToDict>
+py::dict trace_arrays(py::handle origins, py::handle directions, double tmin, double tmax, bool count, Trace trace,
+                      ToDict to_dict) {
   const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<Hit> hits(rays.size());
+  std::vector<Result> results(rays.size());
   TraversalStats stats;
   {
     py::gil_scoped_release release;
-    intersect_closest(target, rays, hits, count ? &stats : nullptr);
+    trace(rays, results, count ? &stats : nullptr);
   }
-  py::dict d = hits_to_dict(hits, std::is_same_v<Target, Structure>);
+  py::dict d = to_dict(results);
   d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
   return d;
+}
+
+// The batch queries of the Python API, for a Structure or a Scene (both have intersect_closest and
+// intersect_any).
+template <class Target>
+py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, double tmin, double tmax,
+                        bool count) {
+  return trace_arrays<Hit>(
+      origins, directions, tmin, tmax, count,
+      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats) {
+        intersect_closest(target, rays, hits, stats);
+      },
+      [](const std::vector<Hit>& hits) { return hits_to_dict(hits, std::is_same_v<Target, Structure>); });
 }
 
 template <class Target>
 py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, double tmin, double tmax,
                        bool count) {
-  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<uint8_t> result(rays.size());
-  TraversalStats stats;
-  {
-    py::gil_scoped_release release;
-    intersect_any(target, rays, result, count ? &stats : nullptr);
-  }
-  py::dict d = occlusion_to_dict(result);
-  d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
-  return d;
+  return trace_arrays<uint8_t>(
+      origins, directions, tmin, tmax, count,
+      [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats) {
+        intersect_any(target, rays, occluded, stats);
+      },
+      occlusion_to_dict);
 }
 
 void bind_scene(py::module_& m);  // core_scene.cpp

@@ -3,6 +3,7 @@
 // unknown key or a bad value is a ValueError naming it; the render itself runs on a worker thread
 // while the calling thread, with the GIL released, wakes a few times a second to report progress.
 #include "bindings.h"
+#include "core_arrays.h"
 
 #include "raylab/image_io.h"
 #include "raylab/renderer.h"
@@ -268,15 +269,11 @@ py::array_t<T> to_array(const std::vector<T>& data, std::vector<py::ssize_t> sha
 }
 
 py::dict stats_dict(const RenderStats& s) {
-  py::dict d;
+  py::dict d = stats_to_dict(s.traversal);  // rays (all traced), rays_ignored, box/triangle tests, nodes
   d["rays_primary"] = s.rays_primary;
   d["rays_shadow"] = s.rays_shadow;
   d["rays_reflection"] = s.rays_reflection;
   d["rays_refraction"] = s.rays_refraction;
-  d["rays_ignored"] = s.traversal.rays_ignored;
-  d["box_tests"] = s.traversal.box_tests;
-  d["triangle_tests"] = s.traversal.triangle_tests;
-  d["nodes_visited"] = s.traversal.nodes_visited;
   d["build_seconds"] = s.build_seconds;
   d["render_seconds"] = s.render_seconds;
   d["memory_bytes"] = s.memory_bytes;

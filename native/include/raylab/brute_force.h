@@ -13,21 +13,13 @@ class BruteForce final : public StructureBase<BruteForce> {
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
     record.ray();
-    const TriangleTester tester(ray, settings_.triangle_test);
-    Hit best = initial_hit(ray);
-    if (!closest_in_triangles(*mesh_, tester, uint32_t(mesh_->triangle_count()),
-                              [](uint32_t i) { return i; }, best, record))
-      return false;
-    hit = best;
-    return true;
+    return closest_in_mesh(*mesh_, settings_.triangle_test, ray, hit, record);
   }
 
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
     record.ray();
-    const TriangleTester tester(ray, settings_.triangle_test);
-    return any_in_triangles(*mesh_, tester, uint32_t(mesh_->triangle_count()),
-                            [](uint32_t i) { return i; }, ray.tmax, record);
+    return any_in_mesh(*mesh_, settings_.triangle_test, ray, record);
   }
 
   std::vector<BoxInfo> boxes() const override { return {}; }

@@ -32,49 +32,12 @@ class Bvh final : public StructureBase<Bvh> {
 
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
-    record.ray();
-    const BoxRay box_ray(ray);
-    Entry stack[kStackSize];
-    int size = 0;
-    if (!enter_root(box_ray, record, stack, size)) return false;
-    const TriangleTester tester(ray, settings_.triangle_test);
-    const Box4Ray box4(box_ray);
-    const Watertight4Ray tri4(tester.watertight);
-    Hit best = initial_hit(ray);
-    bool found = false;
-    while (size > 0) {
-      const Entry e = stack[--size];
-      if (e.t_entry > box_limit(best.t)) continue;
-      record_node(e, record);
-      if (e.count != 0)
-        found |= closest_in_leaf(tester, tri4, e, best, record);
-      else
-        push_children<true>(e, box4, box_limit(best.t), record, stack, size);
-    }
-    if (found) hit = best;
-    return found;
+    return traverse<true>(ray, &hit, record);
   }
 
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
-    record.ray();
-    const BoxRay box_ray(ray);
-    Entry stack[kStackSize];
-    int size = 0;
-    if (!enter_root(box_ray, record, stack, size)) return false;
-    const TriangleTester tester(ray, settings_.triangle_test);
-    const Box4Ray box4(box_ray);
-    const Watertight4Ray tri4(tester.watertight);
-    while (size > 0) {
-      const Entry e = stack[--size];
-      record_node(e, record);
-      if (e.count == 0) {
-        push_children<false>(e, box4, ray.tmax, record, stack, size);
-      } else if (any_in_leaf(tester, tri4, e, record)) {
-        return true;
-      }
-    }
-    return false;
+    return traverse<false>(ray, nullptr, record);
   }
 
   // Box ids, as in boxes() and the story: node n is id n (0 the root), leaf k (in packet order)
@@ -92,6 +55,38 @@ class Bvh final : public StructureBase<Bvh> {
     float t_entry;
     int depth;
   };
+
+  // One loop for both queries: closest hit prunes entries beyond the best hit so far; any hit stops
+  // at the first triangle hit.
+  template <bool kClosest, class Recorder>
+  bool traverse(const Ray& ray, Hit* hit, Recorder& record) const {
+    record.ray();
+    const BoxRay box_ray(ray);
+    Entry stack[kStackSize];
+    int size = 0;
+    if (!enter_root(box_ray, record, stack, size)) return false;
+    const TriangleTester tester(ray, settings_.triangle_test);
+    const Box4Ray box4(box_ray);
+    const Watertight4Ray tri4(tester.watertight);
+    Hit best = initial_hit(ray);
+    bool found = false;
+    while (size > 0) {
+      const Entry e = stack[--size];
+      if constexpr (kClosest) {
+        if (e.t_entry > box_limit(best.t)) continue;
+      }
+      record_node(e, record);
+      if (e.count == 0) {
+        push_children<kClosest>(e, box4, kClosest ? box_limit(best.t) : ray.tmax, record, stack, size);
+      } else if constexpr (kClosest) {
+        found |= closest_in_leaf(tester, tri4, e, best, record);
+      } else if (any_in_leaf(tester, tri4, e, record)) {
+        return true;
+      }
+    }
+    if (found) *hit = best;
+    return found;
+  }
 
   uint32_t leaf_id(uint32_t first_packet) const {
     return uint32_t(nodes_.size() +

@@ -47,4 +47,24 @@ inline Hit initial_hit(const Ray& ray) {
   return h;
 }
 
+// Every triangle of the mesh, in index order: brute force, and the AABB structure once its box is hit.
+template <class Recorder>
+inline bool closest_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Hit& hit,
+                            Recorder& record) {
+  const TriangleTester tester(ray, kind);
+  Hit best = initial_hit(ray);
+  if (!closest_in_triangles(mesh, tester, uint32_t(mesh.triangle_count()), [](uint32_t i) { return i; },
+                            best, record))
+    return false;
+  hit = best;
+  return true;
+}
+
+template <class Recorder>
+inline bool any_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Recorder& record) {
+  const TriangleTester tester(ray, kind);
+  return any_in_triangles(mesh, tester, uint32_t(mesh.triangle_count()), [](uint32_t i) { return i; },
+                          ray.tmax, record);
+}
+
 }  // namespace raylab
