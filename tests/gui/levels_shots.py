@@ -21,8 +21,11 @@ import numpy as np
 from bpy_extras.view3d_utils import location_3d_to_region_2d
 from mathutils import Vector
 
-ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, HERE)
+from blender_window import screenshot as window_screenshot, step_timer, view3d  # noqa: E402
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
 os.makedirs(OUT_DIR, exist_ok=True)
@@ -43,14 +46,6 @@ except Exception:
     report["error"] = traceback.format_exc()
     finish()
 BOX_EDGES = [(0, 1), (1, 3), (3, 2), (2, 0), (4, 5), (5, 7), (7, 6), (6, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
-
-
-def view3d():
-    window = bpy.context.window_manager.windows[0]
-    area = max((a for a in window.screen.areas if a.type == 'VIEW_3D'), key=lambda a: a.width * a.height)
-    region = next(r for r in area.regions if r.type == 'WINDOW')
-    sidebar = next(r for r in area.regions if r.type == 'UI')
-    return window, area, region, sidebar
 
 
 def rect(region):
@@ -80,9 +75,7 @@ def click_raylab_tab():
 
 
 def screenshot(name):
-    window, area, region, _ = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=region):
-        bpy.ops.screen.screenshot(filepath=os.path.join(OUT_DIR, name))
+    window_screenshot(os.path.join(OUT_DIR, name))
 
 
 def level_boxes(scene):
@@ -165,20 +158,9 @@ def watchdog():
     finish()
 
 
-def run_steps():
-    try:
-        STEPS.pop(0)()
-        if STEPS:
-            return 1.5
-    except Exception:
-        report["error"] = traceback.format_exc()
-    finish()
-    return None
-
-
 try:
     raylab.register()
-    bpy.app.timers.register(run_steps, first_interval=2.0)
+    bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
     bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
 except Exception:
     report["error"] = traceback.format_exc()

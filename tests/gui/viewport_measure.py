@@ -15,8 +15,11 @@ import traceback
 
 import bpy
 
-ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, HERE)
+from blender_window import view3d  # noqa: E402
 import raylab  # noqa: E402
 from raylab.blender import overlay, structure_cache  # noqa: E402
 
@@ -25,14 +28,8 @@ MESH = ARGS[0]
 STRUCTURE = ARGS[1] if len(ARGS) > 1 and not ARGS[1].startswith("--") else "octree"
 
 
-def view3d():
-    window = bpy.context.window_manager.windows[0]
-    area = max((a for a in window.screen.areas if a.type == 'VIEW_3D'), key=lambda a: a.width * a.height)
-    return window, area, next(r for r in area.regions if r.type == 'WINDOW')
-
-
 def redraw_seconds(iterations):
-    window, area, region = view3d()
+    window, area, region, _ = view3d()
     with bpy.context.temp_override(window=window, area=area, region=region):
         start = time.perf_counter()
         bpy.ops.wm.redraw_timer(type='DRAW', iterations=iterations)
@@ -49,7 +46,7 @@ def measure():
     obj = bpy.context.selected_objects[0]
     settings = scene.raylab
     settings.structure, settings.leaf_size, settings.fade = STRUCTURE, 8, True
-    window, area, region = view3d()
+    window, area, region, _ = view3d()
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.view3d.view_selected()
     if "--bounds" in ARGS:

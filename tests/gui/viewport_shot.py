@@ -18,22 +18,18 @@ import bpy
 from bpy_extras.view3d_utils import location_3d_to_region_2d
 from mathutils import Euler, Vector
 
-ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, HERE)
 import raylab  # noqa: E402
+from blender_window import screenshot, step_timer, view3d  # noqa: E402
 from raylab.blender import overlay, probe, structure_cache  # noqa: E402
 
 OUT_DIR, STRUCTURE = sys.argv[sys.argv.index("--") + 1:][:2]
 os.makedirs(OUT_DIR, exist_ok=True)
 STEM = os.path.join(OUT_DIR, f"viewport_{STRUCTURE}")
 report = {"structure": STRUCTURE}
-
-
-def view3d():
-    window = bpy.context.window_manager.windows[0]
-    area = max((a for a in window.screen.areas if a.type == 'VIEW_3D'), key=lambda a: a.width * a.height)
-    region = next(r for r in area.regions if r.type == 'WINDOW')
-    return window, area, region
 
 
 def set_up():
@@ -53,7 +49,7 @@ def set_up():
     overlay.ensure_probe_object(scene)
     settings.probe_enabled = False
 
-    _, area, region = view3d()
+    _, area, region, _ = view3d()
     space = area.spaces.active
     space.show_gizmo = False  # the navigation gizmo's green Y axis is not ours
     for flag in ("show_floor", "show_axis_x", "show_axis_y", "show_axis_z", "show_cursor",
@@ -67,15 +63,9 @@ def set_up():
     area.tag_redraw()
 
 
-def screenshot(path):
-    window, area, region = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=region):
-        bpy.ops.screen.screenshot(filepath=path)
-
-
 def describe():
     """Where the drawn boxes lie, projected with the view the screenshots were taken with."""
-    window, area, region = view3d()
+    window, area, region, _ = view3d()
     rv3d = area.spaces.active.region_3d
     scene = bpy.context.scene
     points, edges = [], []
@@ -112,7 +102,7 @@ def shot_probe_off():
     describe()
     screenshot(STEM + "_off.png")
     bpy.context.scene.raylab.probe_enabled = True
-    view3d()[1].tag_redraw()
+    view3d().area.tag_redraw()
 
 
 @step
@@ -120,24 +110,15 @@ def shot_probe_on():
     screenshot(STEM + "_on.png")
 
 
-def run_steps():
-    try:
-        STEPS.pop(0)()
-        if STEPS:
-            return 1.5
-    except Exception:
-        report["error"] = traceback.format_exc()
+def finish():
     with open(STEM + ".json", "w") as f:
         json.dump(report, f)
     bpy.ops.wm.quit_blender()
-    return None
 
 
 try:
     set_up()
-    bpy.app.timers.register(run_steps, first_interval=2.0)
+    bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
 except Exception:
     report["error"] = traceback.format_exc()
-    with open(STEM + ".json", "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
+    finish()

@@ -78,11 +78,4 @@ class RAYLAB_PT_comparison(bpy.types.Panel):
 CLASSES = (RAYLAB_OT_compare_structures, RAYLAB_PT_comparison)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -4,6 +4,7 @@ import numpy as np
 
 import raylab
 
+from . import viewport_panels
 from .scene_export import build_scene, export_scene, render_settings
 
 # ID properties hold 32-bit ints: larger counts are stored as floats.
@@ -112,13 +113,7 @@ class RAYLAB_PT_render_settings(RaylabRenderPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        layout.prop(props, "structure")
-        depth = layout.row()
-        depth.active = props.structure == "octree"
-        depth.prop(props, "max_depth")
-        leaf = layout.row()
-        leaf.active = props.structure in ("octree", "bvh")
-        leaf.prop(props, "leaf_size")
+        viewport_panels.draw_structure_settings(layout, props)
         layout.separator()
         layout.prop(props, "super_sampling")
         layout.prop(props, "max_recursion")

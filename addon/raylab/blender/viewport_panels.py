@@ -4,6 +4,17 @@ import bpy
 from . import probe, structure_cache
 
 
+def draw_structure_settings(layout, props):
+    """The structure and its build settings, each active only where it applies (viewport and render)."""
+    layout.prop(props, "structure")
+    depth = layout.row()
+    depth.active = props.structure == "octree"
+    depth.prop(props, "max_depth")
+    leaf = layout.row()
+    leaf.active = props.structure in ("octree", "bvh")
+    leaf.prop(props, "leaf_size")
+
+
 class _RaylabPanel:
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
@@ -20,13 +31,7 @@ class RAYLAB_PT_structure(_RaylabPanel, bpy.types.Panel):
         settings = context.scene.raylab
         layout = self.layout
         layout.use_property_split = True
-        layout.prop(settings, "structure")
-        column = layout.column()
-        column.active = settings.structure == "octree"
-        column.prop(settings, "max_depth")
-        column = layout.column()
-        column.active = settings.structure in ("octree", "bvh")
-        column.prop(settings, "leaf_size")
+        draw_structure_settings(layout, settings)
         layout.prop(settings, "objects")
         layout.prop(settings, "color_by_depth")
         row = layout.row()
@@ -107,11 +112,4 @@ class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
 CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_last_render)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)
