@@ -13,6 +13,7 @@ import json
 import math
 import os
 import platform
+import shutil
 import statistics
 import subprocess
 import sys
@@ -64,7 +65,7 @@ QUICK = {
     "leaks": {"meshes": ["goathead"], "rays_per_kind": 1000, "reps": 1},
     "self_hits": {"scales": [1e-3, 1, 1e5], "width": 24, "height": 18},
 }
-DISAGREEMENT_KINDS = ("same", "shared_edge_vertex", "coincident_faces", "edge_ray", "grazing", "unexplained")
+DISAGREEMENT_KINDS = ("same", "rounding", "shared_edge_vertex", "coincident_faces", "edge_ray", "grazing", "unexplained")
 
 
 def log(*args):
@@ -120,24 +121,40 @@ def add_ratios(mesh):
 
 # ---------------------------------------------------------------- Blender's BVHTree
 
-def barycentric_min(V, T, triangles, points):
-    """The smallest barycentric coordinate of each point in its triangle (double precision)."""
-    p0, p1, p2 = (V[T[triangles, c]].astype(np.float64) for c in range(3))
-    e1, e2, d = p1 - p0, p2 - p0, points - p0
+def on_edge(V, T, triangles, points):
+    """Whether each hit point lies on its triangle's edge, as native/bench/hit_comparison.cpp decides:
+    smallest barycentric below 1e-5, or distance to the nearest edge below 1e-6 of the triangle's
+    coordinate magnitude (double precision; Blender reports points, not barycentrics)."""
+    p = [V[T[triangles, c]].astype(np.float64) for c in range(3)]
+    e1, e2, d = p[1] - p[0], p[2] - p[0], points - p[0]
     d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
     d1, d2 = (d * e1).sum(1), (d * e2).sum(1)
     denom = d11 * d22 - d12 * d12
     with np.errstate(invalid="ignore", divide="ignore"):
         u = (d22 * d1 - d12 * d2) / denom
         v = (d11 * d2 - d12 * d1) / denom
-    return np.minimum(np.minimum(u, v), 1.0 - u - v)
+        b = np.stack([1.0 - u - v, u, v], axis=1)
+        twice_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+        # b[i] times the height over the edge opposite vertex i is the distance to that edge
+        opposite = np.stack([np.linalg.norm(p[(i + 2) % 3] - p[(i + 1) % 3], axis=1) for i in range(3)], axis=1)
+        distance = b * (twice_area[:, None] / opposite)
+    scale = np.max(np.abs(np.stack(p, axis=1)), axis=(1, 2))
+    return (b.min(axis=1) < 1e-5) | (distance.min(axis=1) < 1e-6 * scale)
 
 
-def classify(V, T, a_t, a_tri, a_edge, b_t, b_tri, b_edge):
+def classify(V, T, origins, directions, a_t, a_tri, b_t, b_tri):
     """Counts per disagreement kind between two tracers' closest hits: the classes of
-    native/bench/hit_comparison.cpp (Blender reports no barycentrics, so nearness to an edge is
-    computed from its hit point). *_edge: bool, the hit lies within 1e-5 (barycentric) of an edge."""
+    native/bench/hit_comparison.cpp, from t and triangle alone."""
     a_hit, b_hit = a_tri >= 0, b_tri >= 0
+    o, d = origins.astype(np.float64), directions.astype(np.float64)
+    with np.errstate(invalid="ignore"):
+        pa = o + np.where(a_hit, a_t, 0.0)[:, None] * d
+        pb = o + np.where(b_hit, b_t, 0.0)[:, None] * d
+    a_edge, b_edge = np.zeros(len(a_t), bool), np.zeros(len(a_t), bool)
+    a_edge[a_hit] = on_edge(V, T, a_tri[a_hit], pa[a_hit])
+    b_edge[b_hit] = on_edge(V, T, b_tri[b_hit], pb[b_hit])
+    scale = np.max(np.abs(np.concatenate([o, pa, pb], axis=1)), axis=1)
+    same_point = np.linalg.norm(pa - pb, axis=1) <= 1e-6 * scale
     kind = np.full(len(a_t), "unexplained", dtype=object)
     kind[~a_hit & ~b_hit] = "same"
     one = a_hit != b_hit
@@ -146,14 +163,16 @@ def classify(V, T, a_t, a_tri, a_edge, b_t, b_tri, b_edge):
     with np.errstate(invalid="ignore"):
         dt = np.abs(a_t - b_t) / np.maximum(np.maximum(np.abs(a_t), np.abs(b_t)), 1e-30)
     same_tri = both & (a_tri == b_tri)
+    kind[same_tri & (dt > 1e-5) & same_point] = "rounding"
     kind[same_tri & (dt <= 1e-5)] = "same"
     diff = both & (a_tri != b_tri)
     ta, tb = T[np.where(diff, a_tri, 0)], T[np.where(diff, b_tri, 0)]
     shares = (ta[:, :, None] == tb[:, None, :]).any(axis=(1, 2))
-    kind[diff & (dt <= 1e-6) & shares] = "shared_edge_vertex"
-    kind[diff & (dt <= 1e-6) & ~shares] = "coincident_faces"
+    tie = diff & ((dt <= 1e-6) | same_point)
+    kind[tie & shares] = "shared_edge_vertex"
+    kind[tie & ~shares] = "coincident_faces"
     nearer_edge = np.where(a_t < b_t, a_edge, b_edge)
-    kind[diff & (dt > 1e-6) & nearer_edge] = "edge_ray"
+    kind[diff & ~tie & nearer_edge] = "edge_ray"
     return {k: int((kind == k).sum()) for k in DISAGREEMENT_KINDS} | {"rays": len(a_t)}
 
 
@@ -174,12 +193,10 @@ def run_blender(config, data_dir, native):
         for ray_set, timing in entry["ray_sets"].items():
             ours = np.load(data_dir / f"{name}.blender_{ray_set}.npy")
             theirs = np.load(data_dir / f"{name}.embree_{ray_set}.npy")
-            o_tri, e_tri = ours[:, 1].astype(np.int64), theirs[:, 1].astype(np.int64)
-            o_edge = np.zeros(len(ours), bool)
-            hit = o_tri >= 0
-            o_edge[hit] = barycentric_min(V, T, o_tri[hit], ours[hit, 2:5]) < 1e-5
-            e_edge = np.minimum(np.minimum(theirs[:, 2], theirs[:, 3]), 1 - theirs[:, 2] - theirs[:, 3]) < 1e-5
-            timing["agreement_with_embree"] = classify(V, T, ours[:, 0], o_tri, o_edge, theirs[:, 0], e_tri, e_edge)
+            rays = np.load(data_dir / f"{name}.rays_{ray_set}.npy")
+            timing["agreement_with_embree"] = classify(V, T, rays[:, 0:3], rays[:, 4:7],
+                                                       ours[:, 0], ours[:, 1].astype(np.int64),
+                                                       theirs[:, 0], theirs[:, 1].astype(np.int64))
             ref = run_lookup(embree, ray_set, "closest", 1)
             timing["ratio_to_embree_medium_1t"] = timing["rays_per_second"] / ref["rays_per_second"]
     return blender
@@ -441,6 +458,38 @@ def fmt_rate(x):
     return "-" if x is None else (f"{x / 1e6:.2f} M" if x >= 1e6 else f"{x / 1e3:.1f} k")
 
 
+def disagreement_examples(results):
+    """One example ray per mesh, structure and kind of disagreement, with both hits re-solved in double
+    precision: the referee says which tracer was off, and by how much."""
+    def hit(h):
+        if h is None:
+            return "miss", "-"
+        edge = ", on edge" if h["on_edge"] else ""
+        return f"{h['triangle']} at t {h['t']:.7g}{edge}", f"{h['double_t']:.9g}"
+
+    lines = ["Examples (the first disagreement of each kind; *double t* is the ray against that triangle solved "
+             "in double precision):", "",
+             "| mesh | structure | rays | query | kind | raylab hit | double t | Embree hit | double t |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name, mesh in results["meshes"].items():
+        for t in mesh["tracers"]:
+            if t["kind"] != "raylab" or t["error"] or t["name"] not in ("octree", "bvh"):
+                continue
+            for ray_set, per in t["tracing"]["per_ray_set"].items():
+                for query, counts in per["agreement_with_embree"].items():
+                    seen = set()
+                    for e in counts.get("examples", []):
+                        if e["kind"] in seen:
+                            continue
+                        seen.add(e["kind"])
+                        ours, theirs = hit(e["raylab"]), hit(e["embree"])
+                        lines.append(f"| {name} | {t['name']} | {ray_set} | {query} | {e['kind']} | {ours[0]} | "
+                                     f"{ours[1]} | {theirs[0]} | {theirs[1]} |")
+    if len(lines) == 4:
+        lines.append("| (no disagreement) | | | | | | | | |")
+    return lines + [""]
+
+
 def markdown(results):
     lines = ["# raylab benchmark", "",
              f"{results['machine']['date']}, {results['machine']['hardware_threads']} hardware threads, "
@@ -494,16 +543,19 @@ def markdown(results):
             for ray_set, per in t["tracing"]["per_ray_set"].items():
                 for query, counts in per["agreement_with_embree"].items():
                     lines.append(f"| {name} | {t['name']} | {ray_set} | {query} | "
-                                 + " | ".join(str(counts[k]) for k in DISAGREEMENT_KINDS) + " |")
+                                 + " | ".join(str(counts.get(k, 0)) for k in DISAGREEMENT_KINDS) + " |")
         for ray_set, b in results["blender"].get("meshes", {}).get(name, {}).get("ray_sets", {}).items():
             c = b["agreement_with_embree"]
             lines.append(f"| {name} | Blender BVHTree | {ray_set} | closest | "
-                         + " | ".join(str(c[k]) for k in DISAGREEMENT_KINDS) + " |")
-    lines += ["", "Kinds: *same* (both miss, or the same triangle at t within 1e-5 relative); *shared_edge_vertex* "
-              "(different triangles sharing a vertex at t within 1e-6: an exact edge or vertex hit owned by both); "
-              "*coincident_faces* (the same, without a shared vertex); *edge_ray* (hit against miss, or a nearer hit "
-              "the other passed, at a point within 1e-5 barycentric of an edge: Embree's default test is not "
-              "watertight); *grazing* (same triangle, t differs, ray almost parallel to the face); *unexplained*.", ""]
+                         + " | ".join(str(c.get(k, 0)) for k in DISAGREEMENT_KINDS) + " |")
+    lines += ["", "Kinds: *same* (both miss, or the same triangle at t within 1e-5 relative); *rounding* (the same "
+              "triangle, hit points within 1e-6 of the coordinates' magnitude: a hit near the ray origin, whose short "
+              "t carries the origin's rounding); *shared_edge_vertex* (different triangles sharing a vertex at the "
+              "same point: an exact edge or vertex hit owned by both); *coincident_faces* (the same, without a "
+              "shared vertex); *edge_ray* (hit against miss, or a nearer hit the other passed, on an edge: within "
+              "1e-5 barycentric or 1e-6 of the coordinates' magnitude; Embree's default test is not watertight); "
+              "*grazing* (same triangle, t differs, ray almost parallel to the face); *unexplained*.", ""]
+    lines += disagreement_examples(results)
     th = results["thesis"]
     structures = thesis_structures(th)
     lines += [f"## The VRT thesis experiment (section 6.1), {th['width']}x{th['height']} pixels", "", th["note"] + ".", "",
@@ -549,10 +601,17 @@ def markdown(results):
     return "\n".join(lines)
 
 
+def legend_below(fig, ax, columns):
+    """One legend for the whole figure, under the plots, where it hides no bar or line."""
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=columns, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
+
+
 def chart_throughput(results, path):
     meshes = list(results["meshes"])
     names = ["none", "aabb", "octree", "bvh", "embree_medium", "embree_high"]
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.8))
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.2))
     for ax, ray_set in zip(axes, ("camera", "random")):
         width = 0.8 / (len(names) + 1)
         for i, tracer in enumerate(names):
@@ -572,8 +631,7 @@ def chart_throughput(results, path):
         ax.set_ylabel("closest-hit rays per second (2 threads)")
         ax.set_title(f"{ray_set} rays: closest hit throughput")
         ax.grid(axis="y", which="both", alpha=0.3)
-    axes[1].legend(fontsize=8, loc="upper right")
-    fig.tight_layout()
+    legend_below(fig, axes[1], len(names) + 1)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -585,7 +643,7 @@ def chart_ratios(results, path):
             ("random_closest_2t_rays_per_second", "random closest rays/s"),
             ("random_any_2t_rays_per_second", "random any-hit rays/s"),
             ("build_2t_seconds", "build seconds"), ("memory_bytes", "memory bytes")]
-    fig, ax = plt.subplots(figsize=(11, 4.5))
+    fig, ax = plt.subplots(figsize=(11, 4.9))
     width = 0.8 / len(keys)
     for i, (key, label) in enumerate(keys):
         values = []
@@ -599,9 +657,8 @@ def chart_ratios(results, path):
     ax.set_ylabel("raylab BVH / Embree 3 (ratio)")
     ax.set_title("raylab BVH against Embree 3 on the same rays, 2 threads (1 = equal; rays/s above 1 is faster, "
                  "seconds and bytes above 1 are worse)", fontsize=9)
-    ax.legend(fontsize=8)
     ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
+    legend_below(fig, ax, len(keys))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -611,7 +668,7 @@ def chart_thesis(results, path):
     levels = sorted({r["super_sampling"] for r in th["rows"] if r["repetitions"] > 1 or len(th["rows"]) < 20})
     levels = [ss for ss in levels if ss != th["reference_super_sampling"]] or levels
     by = {(r["structure"], r["super_sampling"]): r for r in th["rows"]}
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.0))
     for s in thesis_structures(th):
         axes[0].plot(levels, [by[(s, ss)]["render_seconds_median"] for ss in levels], "o-", label=f"raylab {s}")
         axes[1].plot(levels, [by[(s, ss)]["triangle_tests"] for ss in levels], "o-", label=f"raylab {s}")
@@ -625,11 +682,10 @@ def chart_thesis(results, path):
         ax.set_xlabel("super-sampling N (NxN samples per pixel)")
         ax.set_xticks([1, 2, 3])
         ax.grid(which="both", alpha=0.3)
-        ax.legend(fontsize=7)
     mode = "raylab.render" if th["mode"] == "render" else "primary rays only"
     axes[0].set_title(f"Goat head render time ({mode}, {th['width']}x{th['height']}) vs the VRT thesis")
     axes[1].set_title("Ray-triangle tests vs the VRT thesis (Table 4)")
-    fig.tight_layout()
+    legend_below(fig, axes[0], 7)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -666,10 +722,10 @@ def chart_leaks(results, path):
         sel = {f"{r['mesh']}\n{r['rays']}": r for r in rows if r["triangle_test"] == test}
         x = np.arange(len(labels)) + i * 0.4
         axes[0].bar(x, [100 * sel[l]["escaped"] / sel[l]["ray_count"] for l in labels], 0.4, label=test)
-        axes[1].bar(x, [sel[l]["rays_per_second"] for l in labels], 0.4, label=test)
+        axes[1].bar(x, [sel[l]["rays_per_second"] / 1e6 for l in labels], 0.4, label=test)
     axes[0].set_ylabel("rays escaping the closed mesh (%)")
     axes[0].set_title("Rays from inside a closed mesh that escape (must be 0)")
-    axes[1].set_ylabel("closest-hit rays per second (BVH, all threads)")
+    axes[1].set_ylabel("closest-hit rays per second, millions (BVH, all threads)")
     axes[1].set_title("Throughput of each triangle test on the same rays")
     for ax in axes:
         ax.set_xticks(np.arange(len(labels)) + 0.2)
@@ -710,15 +766,44 @@ def write_charts(results, out):
     return sorted(charts)
 
 
+# Where each chart is shown: the level folders hold them as diagrams (the installed add-on carries the
+# levels), and the README embeds them from there.
+PUBLISHED = {"bench_throughput.png": "race", "bench_embree_ratio.png": "race", "bench_thesis.png": "race",
+             "bench_speed_accuracy.png": "race", "bench_leaks.png": "where_methods_fail",
+             "bench_self_hits.png": "where_methods_fail"}
+
+
+def publish(results, out):
+    if results["configuration"] != "full":
+        sys.exit("bench: --publish takes the charts of a full run (./raylab bench without --quick)")
+    for chart, level in PUBLISHED.items():
+        target = ROOT / "levels" / level / "diagrams" / chart
+        shutil.copyfile(out / chart, target)
+        log(f"published {target.relative_to(ROOT)}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a tiny configuration, well under a minute")
     parser.add_argument("--out", default=str(ROOT / "out" / "bench"))
     parser.add_argument("--build-dir", default=os.environ.get("RAYLAB_BUILD_DIR", str(ROOT / "build")))
     parser.add_argument("--no-blender", action="store_true", help="skip Blender's BVHTree")
+    parser.add_argument("--replot", action="store_true",
+                        help="redraw the charts and the table from <out>/results.json, measuring nothing")
+    parser.add_argument("--publish", action="store_true",
+                        help="copy the charts of a full run into the levels that show them (and the README)")
     args = parser.parse_args()
-    config = QUICK if args.quick else FULL
     out = Path(args.out)
+    if args.replot or args.publish:
+        results = json.loads((out / "results.json").read_text())
+        if args.replot:
+            results["charts"] = write_charts(results, out)
+            (out / "results.json").write_text(json.dumps(results, indent=1))
+            (out / "results.md").write_text(markdown(results))
+        if args.publish:
+            publish(results, out)
+        return
+    config = QUICK if args.quick else FULL
     data = out / "data"
     data.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()

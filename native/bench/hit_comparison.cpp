@@ -1,5 +1,7 @@
 #include "hit_comparison.h"
 
+#include "json.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -7,19 +9,43 @@ namespace raylab::bench {
 
 namespace {
 
-constexpr double kSameT = 1e-5;      // relative: the same hit
-constexpr double kExactTie = 1e-6;   // relative: the same point on two faces
-constexpr double kNearEdge = 1e-5;   // barycentric distance to the nearest edge
-constexpr double kGrazingCos = 1e-3; // |cos| between the ray and the face normal
+constexpr double kSameT = 1e-5;           // relative: the same hit
+constexpr double kExactTie = 1e-6;        // relative: the same point on two faces
+constexpr double kNearEdge = 1e-5;        // barycentric distance to the nearest edge
+constexpr double kCoordinateUlps = 1e-6;  // world distance, relative to the coordinates' magnitude
+constexpr double kGrazingCos = 1e-3;      // |cos| between the ray and the face normal
+constexpr size_t kExamplesPerKind = 3;
 
 double relative_difference(float a, float b) {
   const double scale = std::max({std::abs(double(a)), std::abs(double(b)), 1e-30});
   return std::abs(double(a) - double(b)) / scale;
 }
 
-bool near_edge(const Hit& h) {
-  const double w = 1.0 - double(h.u) - double(h.v);
-  return std::min({double(h.u), double(h.v), w}) < kNearEdge;
+double magnitude(const glm::dvec3& p) { return std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}); }
+
+struct Corners {
+  glm::dvec3 p0, p1, p2;
+};
+
+Corners corners(const TriangleMesh& mesh, uint32_t triangle) {
+  return {mesh.vertex(triangle, 0), mesh.vertex(triangle, 1), mesh.vertex(triangle, 2)};
+}
+
+// The hit on the edge: by barycentrics, or by the distance from the hit point to the nearest edge
+// against the rounding of the triangle's coordinates (small triangles far from the origin).
+bool near_edge(const TriangleMesh& mesh, const Hit& h) {
+  const double b[3] = {1.0 - double(h.u) - double(h.v), double(h.u), double(h.v)};
+  if (std::min({b[0], b[1], b[2]}) < kNearEdge) return true;
+  const Corners c = corners(mesh, h.triangle);
+  const glm::dvec3 p[3] = {c.p0, c.p1, c.p2};
+  const double twice_area = glm::length(glm::cross(c.p1 - c.p0, c.p2 - c.p0));
+  const double scale = std::max({magnitude(c.p0), magnitude(c.p1), magnitude(c.p2)});
+  for (int i = 0; i < 3; ++i) {
+    // b[i] times the height over the opposite edge is the distance to that edge.
+    const double opposite = glm::length(p[(i + 2) % 3] - p[(i + 1) % 3]);
+    if (opposite > 0.0 && b[i] * twice_area / opposite < kCoordinateUlps * scale) return true;
+  }
+  return false;
 }
 
 bool share_vertex(const TriangleMesh& mesh, uint32_t a, uint32_t b) {
@@ -31,11 +57,51 @@ bool share_vertex(const TriangleMesh& mesh, uint32_t a, uint32_t b) {
 }
 
 bool grazing(const TriangleMesh& mesh, const Ray& ray, uint32_t triangle) {
-  const glm::dvec3 p0 = mesh.vertex(triangle, 0), p1 = mesh.vertex(triangle, 1), p2 = mesh.vertex(triangle, 2);
-  const glm::dvec3 n = glm::cross(p1 - p0, p2 - p0);
+  const Corners c = corners(mesh, triangle);
+  const glm::dvec3 n = glm::cross(c.p1 - c.p0, c.p2 - c.p0);
   const glm::dvec3 d = ray.direction;
   const double len = glm::length(n) * glm::length(d);
   return len == 0.0 || std::abs(glm::dot(n, d)) < kGrazingCos * len;
+}
+
+// Both hits on one triangle at points closer than the rounding of the coordinates involved.
+bool same_point(const Ray& ray, const Hit& a, const Hit& b) {
+  const glm::dvec3 o = ray.origin, d = ray.direction;
+  const glm::dvec3 pa = o + double(a.t) * d, pb = o + double(b.t) * d;
+  const double scale = std::max({magnitude(o), magnitude(pa), magnitude(pb)});
+  return glm::length(pa - pb) <= kCoordinateUlps * scale;
+}
+
+// The ray against the plane of a triangle in double precision: t and the barycentrics (u, v) of
+// vertices 1 and 2, NaN when the ray is parallel to the plane.
+glm::dvec3 solve_double(const TriangleMesh& mesh, const Ray& ray, uint32_t triangle) {
+  const Corners c = corners(mesh, triangle);
+  const glm::dvec3 o = ray.origin, d = ray.direction;
+  const glm::dvec3 e1 = c.p1 - c.p0, e2 = c.p2 - c.p0, s = o - c.p0;
+  const glm::dvec3 pv = glm::cross(d, e2);
+  const double det = glm::dot(e1, pv);
+  if (det == 0.0) return glm::dvec3(NAN);
+  const glm::dvec3 qv = glm::cross(s, e1);
+  return {glm::dot(e2, qv) / det, glm::dot(s, pv) / det, glm::dot(d, qv) / det};
+}
+
+std::string hit_json(const TriangleMesh& mesh, const Ray& ray, const Hit& h) {
+  if (!h.valid()) return "null";
+  const glm::dvec3 exact = solve_double(mesh, ray, h.triangle);
+  return json::object({{"triangle", json::num(h.triangle)},
+                       {"t", json::num(h.t)},
+                       {"u", json::num(h.u)},
+                       {"v", json::num(h.v)},
+                       {"double_t", json::num(exact.x)},
+                       {"double_u", json::num(exact.y)},
+                       {"double_v", json::num(exact.z)},
+                       {"on_edge", near_edge(mesh, h) ? "true" : "false"}});
+}
+
+void keep(Comparison& c, Agreement kind, const Ray& ray, const Hit& ours, const Hit& theirs) {
+  ++c.counts[int(kind)];
+  if (kind != Agreement::Same && c.counts[int(kind)] <= kExamplesPerKind)
+    c.examples.push_back({kind, ray, ours, theirs});
 }
 
 }  // namespace
@@ -43,6 +109,7 @@ bool grazing(const TriangleMesh& mesh, const Ray& ray, uint32_t triangle) {
 const char* agreement_name(Agreement a) {
   switch (a) {
     case Agreement::Same: return "same";
+    case Agreement::Rounding: return "rounding";
     case Agreement::SharedEdgeVertex: return "shared_edge_vertex";
     case Agreement::CoincidentFaces: return "coincident_faces";
     case Agreement::EdgeRay: return "edge_ray";
@@ -55,42 +122,67 @@ const char* agreement_name(Agreement a) {
 Agreement classify(const TriangleMesh& mesh, const Ray& ray, const Hit& ours, const Hit& theirs) {
   if (!ours.valid() && !theirs.valid()) return Agreement::Same;
   if (ours.valid() != theirs.valid())
-    return near_edge(ours.valid() ? ours : theirs) ? Agreement::EdgeRay : Agreement::Unexplained;
+    return near_edge(mesh, ours.valid() ? ours : theirs) ? Agreement::EdgeRay : Agreement::Unexplained;
   const double dt = relative_difference(ours.t, theirs.t);
   if (ours.triangle == theirs.triangle) {
     if (dt <= kSameT) return Agreement::Same;
+    if (same_point(ray, ours, theirs)) return Agreement::Rounding;
     return grazing(mesh, ray, ours.triangle) ? Agreement::Grazing : Agreement::Unexplained;
   }
-  if (dt <= kExactTie)
+  if (dt <= kExactTie || same_point(ray, ours, theirs))
     return share_vertex(mesh, ours.triangle, theirs.triangle) ? Agreement::SharedEdgeVertex
                                                               : Agreement::CoincidentFaces;
   // One tracer found a nearer hit the other passed by: explained when that hit is at an edge.
   const Hit& nearer = ours.t < theirs.t ? ours : theirs;
-  return near_edge(nearer) ? Agreement::EdgeRay : Agreement::Unexplained;
+  return near_edge(mesh, nearer) ? Agreement::EdgeRay : Agreement::Unexplained;
 }
 
-AgreementCounts compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
-                                std::span<const Hit> theirs) {
-  AgreementCounts counts{};
-  for (size_t i = 0; i < rays.size(); ++i) ++counts[int(classify(mesh, rays[i], ours[i], theirs[i]))];
-  return counts;
+Comparison compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
+                           std::span<const Hit> theirs) {
+  Comparison c;
+  for (size_t i = 0; i < rays.size(); ++i) keep(c, classify(mesh, rays[i], ours[i], theirs[i]), rays[i], ours[i], theirs[i]);
+  return c;
 }
 
-AgreementCounts compare_any(const TriangleMesh&, std::span<const Ray> rays, std::span<const uint8_t> ours,
-                            std::span<const uint8_t> theirs, std::span<const Hit> our_closest,
-                            std::span<const Hit> their_closest) {
-  AgreementCounts counts{};
+Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const uint8_t> ours,
+                       std::span<const uint8_t> theirs, std::span<const Hit> our_closest,
+                       std::span<const Hit> their_closest) {
+  Comparison c;
   for (size_t i = 0; i < rays.size(); ++i) {
     if (bool(ours[i]) == bool(theirs[i])) {
-      ++counts[int(Agreement::Same)];
+      ++c.counts[int(Agreement::Same)];
       continue;
     }
     // The tracer that saw an occluder saw it as its closest hit too; that hit tells whether the ray
     // only touched an edge.
     const Hit& seen = ours[i] ? our_closest[i] : their_closest[i];
-    ++counts[int(seen.valid() && near_edge(seen) ? Agreement::EdgeRay : Agreement::Unexplained)];
+    const Agreement kind = seen.valid() && near_edge(mesh, seen) ? Agreement::EdgeRay : Agreement::Unexplained;
+    keep(c, kind, rays[i], our_closest[i], their_closest[i]);
   }
-  return counts;
+  return c;
+}
+
+std::string comparison_json(const TriangleMesh& mesh, const Comparison& c) {
+  std::vector<json::Member> m;
+  uint64_t total = 0;
+  for (int k = 0; k < kAgreementKinds; ++k) {
+    m.push_back({agreement_name(Agreement(k)), json::num(double(c.counts[k]))});
+    total += c.counts[k];
+  }
+  m.push_back({"rays", json::num(double(total))});
+  std::vector<std::string> examples;
+  for (const Disagreement& e : c.examples) {
+    const Ray& r = e.ray;
+    examples.push_back(json::object(
+        {{"kind", json::str(agreement_name(e.kind))},
+         {"origin", json::numbers({r.origin.x, r.origin.y, r.origin.z})},
+         {"direction", json::numbers({r.direction.x, r.direction.y, r.direction.z})},
+         {"tmin", json::num(r.tmin)},
+         {"raylab", hit_json(mesh, r, e.ours)},
+         {"embree", hit_json(mesh, r, e.theirs)}}));
+  }
+  m.push_back({"examples", json::array(examples)});
+  return json::object(m);
 }
 
 }  // namespace raylab::bench

@@ -1,4 +1,5 @@
-// Compares raylab's hits with Embree's on the same rays and explains each disagreement.
+// Compares raylab's hits with Embree's on the same rays and explains each disagreement, with a few
+// example rays per kind re-solved in double precision.
 #pragma once
 
 #include "raylab/geometry.h"
@@ -6,34 +7,56 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <string>
+#include <vector>
 
 namespace raylab::bench {
 
-// What a disagreement between two tracers on one ray is, most benign first.
+// What a disagreement between two tracers on one ray is, most benign first. Tolerances are in
+// world units where rounding is: a float coordinate carries about 1.2e-7 of its magnitude.
 enum class Agreement {
   Same,              // both miss, or the same triangle at t within 1e-5 relative
+  Rounding,          // the same triangle, the hit points within 1e-6 of the coordinates' magnitude:
+                     // a hit close to the ray origin, whose short t carries the origin's rounding
   SharedEdgeVertex,  // different triangles sharing a vertex, t within 1e-6 relative: an exact edge or
                      // vertex hit that both adjacent triangles own, broken differently
   CoincidentFaces,   // different triangles sharing no vertex at the same t: overlapping faces
-  EdgeRay,           // one hits and the other misses (or hits farther), and the nearer hit lies
-                     // within 1e-5 (barycentric) of its triangle's edge: the ray grazes an edge
+  EdgeRay,           // one hits and the other misses (or hits farther), and the nearer hit lies on
+                     // its triangle's edge (1e-5 barycentric, or 1e-6 of the coordinates' magnitude):
+                     // the ray passes through an edge, where Embree's default test is not watertight
   Grazing,           // the same triangle, t differs: the ray is almost parallel to the face
   Unexplained,
 };
-inline constexpr int kAgreementKinds = 6;
+inline constexpr int kAgreementKinds = 7;
 const char* agreement_name(Agreement a);
 
 using AgreementCounts = std::array<uint64_t, kAgreementKinds>;
 
+// One disagreeing ray, kept as evidence: both hits and, for each hit triangle, the ray's hit solved
+// in double precision (t, u, v) as the referee.
+struct Disagreement {
+  Agreement kind;
+  Ray ray;
+  Hit ours, theirs;
+};
+
+struct Comparison {
+  AgreementCounts counts{};
+  std::vector<Disagreement> examples;  // the first few of each kind but Same
+};
+
 Agreement classify(const TriangleMesh& mesh, const Ray& ray, const Hit& ours, const Hit& theirs);
 
-// Closest hits: every ray classified. Any-hit: a hit/miss difference is explained when the same
-// ray's closest hits already disagree as an edge ray (or agree on a hit at an edge), else it counts
-// as unexplained.
-AgreementCounts compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
-                                std::span<const Hit> theirs);
-AgreementCounts compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const uint8_t> ours,
-                            std::span<const uint8_t> theirs, std::span<const Hit> our_closest,
-                            std::span<const Hit> their_closest);
+// Closest hits: every ray classified. Any-hit: a hit/miss difference is explained when the hit the
+// occluding tracer saw as closest lies on an edge, else it counts as unexplained.
+Comparison compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
+                           std::span<const Hit> theirs);
+Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const uint8_t> ours,
+                       std::span<const uint8_t> theirs, std::span<const Hit> our_closest,
+                       std::span<const Hit> their_closest);
+
+// JSON: {"same": n, ..., "rays": N, "examples": [...]}, each example with the ray, both hits and the
+// double-precision referee for both triangles.
+std::string comparison_json(const TriangleMesh& mesh, const Comparison& c);
 
 }  // namespace raylab::bench

@@ -221,17 +221,6 @@ struct RaySet {
   std::vector<Ray> rays;
 };
 
-std::string agreement_json(const AgreementCounts& c) {
-  std::vector<json::Member> m;
-  uint64_t total = 0;
-  for (int k = 0; k < kAgreementKinds; ++k) {
-    m.push_back({agreement_name(Agreement(k)), json::num(double(c[k]))});
-    total += c[k];
-  }
-  m.push_back({"rays", json::num(double(total))});
-  return json::object(m);
-}
-
 std::string stats_json(const TraversalStats& s) {
   const double n = std::max<double>(1.0, double(s.rays));
   return json::object({{"rays", json::num(double(s.rays))},
@@ -241,7 +230,9 @@ std::string stats_json(const TraversalStats& s) {
                        {"nodes_visited_per_ray", json::num(double(s.nodes_visited) / n)}});
 }
 
-// Times both queries on every ray set at every thread count; `extra(set, subset)` adds what only
+constexpr double kCheckSeconds = 1.0;
+
+// Times both queries on every ray set at every thread count; `extra(set, rays)` adds what only
 // one kind of tracer reports (raylab's counts and agreement).
 std::string trace_runs(const Tracer& tracer, const std::vector<RaySet>& sets, const Options& o,
                        const std::function<std::string(const RaySet&, const std::vector<Ray>&)>& extra) {
@@ -270,7 +261,12 @@ std::string trace_runs(const Tracer& tracer, const std::vector<RaySet>& sets, co
                                      {"rays_per_second", json::num(double(n) / med)}}));
       }
     }
-    per_set.push_back({set.name, extra(set, subset)});
+    // Counts and agreement on every ray of the set when the tracer gets through them in about
+    // kCheckSeconds; brute force on a million triangles checks the rays it can.
+    const size_t checked = n == set.rays.size()
+                               ? n
+                               : std::min(set.rays.size(), std::max(n, size_t(double(n) / o.rep_seconds * kCheckSeconds)));
+    per_set.push_back({set.name, extra(set, strided(set.rays, checked))});
   }
   return json::object({{"runs", json::array(runs)}, {"per_ray_set", json::object(per_set)}});
 }
@@ -364,8 +360,8 @@ int run(const Options& o) {
       return json::object(
           {{"counts", json::object({{"closest", stats_json(closest_stats)}, {"any", stats_json(any_stats)}})},
            {"agreement_with_embree",
-            json::object({{"closest", agreement_json(compare_closest(*mesh, rays, ours, theirs))},
-                          {"any", agreement_json(compare_any(*mesh, rays, our_any, their_any, ours, theirs))}})}});
+            json::object({{"closest", comparison_json(*mesh, compare_closest(*mesh, rays, ours, theirs))},
+                          {"any", comparison_json(*mesh, compare_any(*mesh, rays, our_any, their_any, ours, theirs))}})}});
     };
     const std::string traced = trace_runs(tracer, sets, o, counts_and_agreement);
     tracers.push_back(json::object({{"name", json::str(name)},

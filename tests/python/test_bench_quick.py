@@ -12,7 +12,7 @@ import raylab
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 BUILD = pathlib.Path(os.environ.get("RAYLAB_BUILD_DIR", ROOT / "build"))
-KINDS = ("same", "shared_edge_vertex", "coincident_faces", "edge_ray", "grazing", "unexplained")
+KINDS = ("same", "rounding", "shared_edge_vertex", "coincident_faces", "edge_ray", "grazing", "unexplained")
 
 pytestmark = pytest.mark.skipif(not (BUILD / "raylab_bench").exists(),
                                 reason="raylab_bench is built only when Embree (libembree-dev) is found")
@@ -68,6 +68,10 @@ def test_every_disagreement_with_embree_is_explained(bench):
                 for query, counts in per["agreement_with_embree"].items():
                     assert sum(counts[k] for k in KINDS) == counts["rays"] > 0
                     assert counts["unexplained"] == 0, (name, tracer["name"], ray_set, query, counts)
+                    for example in counts["examples"]:  # the evidence behind each kind, re-solved
+                        assert example["kind"] in KINDS[1:] and counts[example["kind"]] > 0
+                        hits = [example[t] for t in ("raylab", "embree") if example[t] is not None]
+                        assert hits and all("double_t" in h for h in hits)
         for ray_set, b in results["blender"]["meshes"][name]["ray_sets"].items():
             counts = b["agreement_with_embree"]
             assert sum(counts[k] for k in KINDS) == counts["rays"] == b["ray_count"]
