@@ -316,11 +316,23 @@ def run_thesis(config):
               "width": cfg["width"], "height": cfg["height"], "mesh": "goathead.obj", "triangles": len(T),
               "rows": rows, "thesis": THESIS, "reference_super_sampling": cfg["reference_ss"]}
     if images:
-        # The reference: the same scene at a super-sampling none of the measured renders reach, traced
-        # with the BVH (every structure gives the same image; image_errors checks that at each level).
-        reference = render_once(V, T, "bvh", camera, lights, materials, super_sampling=cfg["reference_ss"]).image
-        result["image_error"] = image_errors(images, reference)
+        result["image_error"] = image_errors(images, reference_render(V, T, camera, lights, materials,
+                                                                      cfg["reference_ss"]))
     return result
+
+
+def reference_render(V, T, camera, lights, materials, samples):
+    """The scene with samples x samples rays per pixel, traced with the BVH (every structure gives the
+    same image; image_errors checks that at each level). The renderer super-samples up to 4x4, so the
+    picture is rendered k times larger at samples/k and each k x k block averaged: the same regular
+    grid of samples."""
+    k = math.ceil(samples / 4)
+    if samples % k:
+        raise ValueError(f"reference super-sampling {samples} is not a multiple of {k}")
+    big = dict(camera, resolution_x=camera["resolution_x"] * k, resolution_y=camera["resolution_y"] * k)
+    image = render_once(V, T, "bvh", big, lights, materials, super_sampling=samples // k).image
+    h, w = camera["resolution_y"], camera["resolution_x"]
+    return image.reshape(h, k, w, k, image.shape[-1]).mean(axis=(1, 3))
 
 
 def image_errors(images, reference):
