@@ -31,15 +31,21 @@ Corners corners(const TriangleMesh& mesh, uint32_t triangle) {
   return {mesh.vertex(triangle, 0), mesh.vertex(triangle, 1), mesh.vertex(triangle, 2)};
 }
 
+// The magnitude the rounding of a ray/triangle test is relative to: tests translate the corners by
+// the ray origin, so both count.
+double rounding_scale(const Ray& ray, const Corners& c) {
+  return std::max({magnitude(ray.origin), magnitude(c.p0), magnitude(c.p1), magnitude(c.p2)});
+}
+
 // The hit on the edge: by barycentrics, or by the distance from the hit point to the nearest edge
-// against the rounding of the triangle's coordinates (small triangles far from the origin).
-bool near_edge(const TriangleMesh& mesh, const Hit& h) {
+// against the rounding of the coordinates (small triangles, or far from the ray origin).
+bool near_edge(const TriangleMesh& mesh, const Ray& ray, const Hit& h) {
   const double b[3] = {1.0 - double(h.u) - double(h.v), double(h.u), double(h.v)};
   if (std::min({b[0], b[1], b[2]}) < kNearEdge) return true;
   const Corners c = corners(mesh, h.triangle);
   const glm::dvec3 p[3] = {c.p0, c.p1, c.p2};
   const double twice_area = glm::length(glm::cross(c.p1 - c.p0, c.p2 - c.p0));
-  const double scale = std::max({magnitude(c.p0), magnitude(c.p1), magnitude(c.p2)});
+  const double scale = rounding_scale(ray, c);
   for (int i = 0; i < 3; ++i) {
     // b[i] times the height over the opposite edge is the distance to that edge.
     const double opposite = glm::length(p[(i + 2) % 3] - p[(i + 1) % 3]);
@@ -64,7 +70,19 @@ bool grazing(const TriangleMesh& mesh, const Ray& ray, uint32_t triangle) {
   return len == 0.0 || std::abs(glm::dot(n, d)) < kGrazingCos * len;
 }
 
-// Both hits on one triangle at points closer than the rounding of the coordinates involved.
+// Both hits on one triangle lie on its plane within rounding: the hit points' distance along the
+// face normal. Along the face they may slide further: a short t carries the origin's rounding, and a
+// grazing ray stretches any error along the face.
+bool same_plane_point(const TriangleMesh& mesh, const Ray& ray, const Hit& a, const Hit& b) {
+  const Corners c = corners(mesh, a.triangle);
+  const glm::dvec3 n = glm::cross(c.p1 - c.p0, c.p2 - c.p0);
+  const double len = glm::length(n);
+  if (len == 0.0) return false;
+  const double off_plane = std::abs((double(a.t) - double(b.t)) * glm::dot(glm::dvec3(ray.direction), n) / len);
+  return off_plane <= kCoordinateUlps * rounding_scale(ray, c);
+}
+
+// Hits on two triangles at points closer than the rounding of the coordinates involved.
 bool same_point(const Ray& ray, const Hit& a, const Hit& b) {
   const glm::dvec3 o = ray.origin, d = ray.direction;
   const glm::dvec3 pa = o + double(a.t) * d, pb = o + double(b.t) * d;
@@ -95,7 +113,7 @@ std::string hit_json(const TriangleMesh& mesh, const Ray& ray, const Hit& h) {
                        {"double_t", json::num(exact.x)},
                        {"double_u", json::num(exact.y)},
                        {"double_v", json::num(exact.z)},
-                       {"on_edge", near_edge(mesh, h) ? "true" : "false"}});
+                       {"on_edge", near_edge(mesh, ray, h) ? "true" : "false"}});
 }
 
 void keep(Comparison& c, Agreement kind, const Ray& ray, const Hit& ours, const Hit& theirs) {
@@ -122,11 +140,11 @@ const char* agreement_name(Agreement a) {
 Agreement classify(const TriangleMesh& mesh, const Ray& ray, const Hit& ours, const Hit& theirs) {
   if (!ours.valid() && !theirs.valid()) return Agreement::Same;
   if (ours.valid() != theirs.valid())
-    return near_edge(mesh, ours.valid() ? ours : theirs) ? Agreement::EdgeRay : Agreement::Unexplained;
+    return near_edge(mesh, ray, ours.valid() ? ours : theirs) ? Agreement::EdgeRay : Agreement::Unexplained;
   const double dt = relative_difference(ours.t, theirs.t);
   if (ours.triangle == theirs.triangle) {
     if (dt <= kSameT) return Agreement::Same;
-    if (same_point(ray, ours, theirs)) return Agreement::Rounding;
+    if (same_plane_point(mesh, ray, ours, theirs)) return Agreement::Rounding;
     return grazing(mesh, ray, ours.triangle) ? Agreement::Grazing : Agreement::Unexplained;
   }
   if (dt <= kExactTie || same_point(ray, ours, theirs))
@@ -134,7 +152,7 @@ Agreement classify(const TriangleMesh& mesh, const Ray& ray, const Hit& ours, co
                                                               : Agreement::CoincidentFaces;
   // One tracer found a nearer hit the other passed by: explained when that hit is at an edge.
   const Hit& nearer = ours.t < theirs.t ? ours : theirs;
-  return near_edge(mesh, nearer) ? Agreement::EdgeRay : Agreement::Unexplained;
+  return near_edge(mesh, ray, nearer) ? Agreement::EdgeRay : Agreement::Unexplained;
 }
 
 Comparison compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
@@ -156,7 +174,7 @@ Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std:
     // The tracer that saw an occluder saw it as its closest hit too; that hit tells whether the ray
     // only touched an edge.
     const Hit& seen = ours[i] ? our_closest[i] : their_closest[i];
-    const Agreement kind = seen.valid() && near_edge(mesh, seen) ? Agreement::EdgeRay : Agreement::Unexplained;
+    const Agreement kind = seen.valid() && near_edge(mesh, rays[i], seen) ? Agreement::EdgeRay : Agreement::Unexplained;
     keep(c, kind, rays[i], our_closest[i], their_closest[i]);
   }
   return c;

@@ -13,16 +13,19 @@
 namespace raylab::bench {
 
 // What a disagreement between two tracers on one ray is, most benign first. Tolerances are in
-// world units where rounding is: a float coordinate carries about 1.2e-7 of its magnitude.
+// world units where rounding is: a float coordinate carries about 1.2e-7 of its magnitude, and a
+// test works on the corners minus the ray origin.
 enum class Agreement {
   Same,              // both miss, or the same triangle at t within 1e-5 relative
-  Rounding,          // the same triangle, the hit points within 1e-6 of the coordinates' magnitude:
-                     // a hit close to the ray origin, whose short t carries the origin's rounding
+  Rounding,          // the same triangle, t differs, but both hit points lie on its plane within 1e-6
+                     // of the coordinates' magnitude: the difference is a slide along the face, which
+                     // a short t (the origin's rounding) or a grazing ray magnifies
   SharedEdgeVertex,  // different triangles sharing a vertex, t within 1e-6 relative: an exact edge or
                      // vertex hit that both adjacent triangles own, broken differently
   CoincidentFaces,   // different triangles sharing no vertex at the same t: overlapping faces
   EdgeRay,           // one hits and the other misses (or hits farther), and the nearer hit lies on
-                     // its triangle's edge (1e-5 barycentric, or 1e-6 of the coordinates' magnitude):
+                     // its triangle's edge (1e-5 barycentric, or 1e-6 of the magnitude of the corners
+                     // and the ray origin):
                      // the ray passes through an edge, where Embree's default test is not watertight
   Grazing,           // the same triangle, t differs: the ray is almost parallel to the face
   Unexplained,
