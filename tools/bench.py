@@ -789,7 +789,7 @@ def write_charts(results, out):
 
 
 # Where each chart is shown: the level folders hold them as diagrams (the installed add-on carries the
-# levels), and the README embeds them from there.
+# levels), and the README embeds them from there; the full table goes to docs/bench/results.md.
 PUBLISHED = {"bench_throughput.png": "race", "bench_embree_ratio.png": "race", "bench_thesis.png": "race",
              "bench_speed_accuracy.png": "race", "bench_leaks.png": "where_methods_fail",
              "bench_self_hits.png": "where_methods_fail"}
@@ -802,6 +802,8 @@ def publish(results, out):
         target = ROOT / "levels" / level / "diagrams" / chart
         shutil.copyfile(out / chart, target)
         log(f"published {target.relative_to(ROOT)}")
+    shutil.copyfile(out / "results.md", ROOT / "docs" / "bench" / "results.md")
+    log("published docs/bench/results.md")
 
 
 def main():
