@@ -276,13 +276,19 @@ def test_a_setting_that_does_not_exist_leaves_no_half_built_scene(tmp_path):
         bpy.ops.raylab.level_open(level_id="no_such_level")
 
 
-def test_every_diagram_the_text_shows_exists_and_is_drawn_by_the_script():
-    with open(os.path.join(LEVELS_DIR, "make_diagrams.py"), encoding="utf-8") as f:
-        script = f.read()
+def test_every_diagram_the_text_shows_exists_and_is_drawn_by_a_script():
+    """Diagrams come from levels/make_diagrams.py, charts (bench_*.png) from ./raylab bench --publish."""
+    scripts = {}
+    for name, path in (("make_diagrams", os.path.join(LEVELS_DIR, "make_diagrams.py")),
+                       ("bench", os.path.join(ROOT, "tools", "bench.py"))):
+        with open(path, encoding="utf-8") as f:
+            scripts[name] = f.read()
     for level in levels.available_levels()[0]:
         images = [block[1] for block in level.blocks if block[0] == "image"]
         if level.id != "sandbox":
             assert images, f"{level.id} shows no diagram"
         for path in images:
             assert os.path.getsize(path) > 10_000
-            assert f'"{os.path.basename(path)}"' in script
+            name = os.path.basename(path)
+            script = scripts["bench" if name.startswith("bench_") else "make_diagrams"]
+            assert f'"{name}"' in script, name

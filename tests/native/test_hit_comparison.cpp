@@ -54,6 +54,18 @@ TEST(HitComparison, AShortHitFarFromTheOriginIsRounding) {
             Agreement::Unexplained);
 }
 
+TEST(HitComparison, ASlideAlongTheFaceOfAGrazingRayIsRounding) {
+  // At 1 degree off the face, hits 2e-5 apart along the ray are 3.5e-7 apart across the face.
+  const TriangleMesh mesh = two_triangles();
+  Ray ray;
+  ray.origin = {0.1f, 0.2f, 0.00873f};
+  ray.direction = {0.99985f, 0.0f, -0.01745f};
+  EXPECT_EQ(classify(mesh, ray, hit(0, 0.5f, 0.4f, 0.2f), hit(0, 0.50002f, 0.40002f, 0.2f)), Agreement::Rounding);
+  // Head-on, the same difference leaves the face.
+  EXPECT_EQ(classify(mesh, down_from(0.4f, 0.2f, 0.5f), hit(0, 0.5f, 0.4f, 0.2f), hit(0, 0.50002f, 0.4f, 0.2f)),
+            Agreement::Unexplained);
+}
+
 TEST(HitComparison, AnEdgeHitOwnedByBothNeighboursIsSharedEdge) {
   const TriangleMesh mesh = two_triangles();
   EXPECT_EQ(classify(mesh, down_from(0.5f, 0.5f, 1), hit(0, 1.0f, 0.5f, 0.5f), hit(1, 1.0f, 0.0f, 0.5f)),
