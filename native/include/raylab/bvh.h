@@ -70,14 +70,20 @@ class Bvh final : public StructureBase<Bvh> {
     const Watertight4Ray tri4(tester.watertight);
     Hit best = initial_hit(ray);
     bool found = false;
-    while (size > 0) {
-      const Entry e = stack[--size];
+    Entry e;
+    bool descending = false;  // e is the nearest child of the node just visited, not yet on the stack
+    for (;;) {
+      if (!descending) {
+        if (size == 0) break;
+        e = stack[--size];
+      }
+      descending = false;
       if constexpr (kClosest) {
         if (e.t_entry > box_limit(best.t)) continue;
       }
       record_node(e, record);
       if (e.count == 0) {
-        push_children<kClosest>(e, box4, kClosest ? box_limit(best.t) : ray.tmax, record, stack, size);
+        descending = visit_children<kClosest>(e, box4, kClosest ? box_limit(best.t) : ray.tmax, record, stack, size);
       } else if constexpr (kClosest) {
         found |= closest_in_leaf(tester, tri4, e, best, record);
       } else if (any_in_leaf(tester, tri4, e, record)) {
@@ -111,11 +117,11 @@ class Bvh final : public StructureBase<Bvh> {
     return true;
   }
 
-  // Tests the four children of a node and pushes those hit; `Ordered` pushes them farthest first so
-  // that the nearest is visited next.
+  // Tests the four children of node `e` and replaces `e` with the child to visit next, returning
+  // false when no child is hit. The other children hit go on the stack; `Ordered` puts the nearest
+  // child in `e` and pushes the rest farthest first. A lone hit child, the common case, skips the stack.
   template <bool Ordered, class Recorder>
-  void push_children(const Entry& e, const Box4Ray& box4, float tmax, Recorder& record, Entry* stack,
-                     int& size) const {
+  bool visit_children(Entry& e, const Box4Ray& box4, float tmax, Recorder& record, Entry* stack, int& size) const {
     const Bvh4Node& node = nodes_[e.ref];
     __m128 entry;
     int mask = intersect_box4(node, box4, tmax, entry);
@@ -127,10 +133,18 @@ class Bvh final : public StructureBase<Bvh> {
           record.box(node.leaf(i) ? leaf_id(node.child[i]) : node.child[i], node.bounds(i), e.depth + 1,
                      (mask >> i) & 1, t[i]);
     }
+    if (mask == 0) return false;
+    const int depth = e.depth + 1;
+    if ((mask & (mask - 1)) == 0) {
+      const int i = std::countr_zero(unsigned(mask));
+      e = {node.child[i], node.count[i], t[i], depth};
+      prefetch(e);
+      return true;
+    }
     const int first = size;
     for (; mask != 0; mask &= mask - 1) {
       const int i = std::countr_zero(unsigned(mask));
-      Entry c{node.child[i], node.count[i], t[i], e.depth + 1};
+      Entry c{node.child[i], node.count[i], t[i], depth};
       prefetch(c);
       if constexpr (Ordered) {
         int j = size;  // insertion: the stack segment of this node stays sorted, farthest at the bottom
@@ -144,6 +158,8 @@ class Bvh final : public StructureBase<Bvh> {
       }
       ++size;
     }
+    e = stack[--size];
+    return true;
   }
 
   // Starts loading a child while its siblings are tested: on large meshes traversal waits on memory.
