@@ -232,6 +232,7 @@ RenderSettings settings_from_dict(py::handle object) {
   s.ambient = f.color("ambient", s.ambient);
   s.robust_offset = f.boolean("robust_offset", s.robust_offset);
   s.fixed_epsilon = float(f.number("fixed_epsilon", s.fixed_epsilon));
+  s.shadow_terminator = f.boolean("shadow_terminator", s.shadow_terminator);
   s.threads = f.integer("threads", s.threads);
   s.tile_size = f.integer("tile_size", s.tile_size);
   f.finish();
@@ -388,7 +389,8 @@ void bind_render(py::module_& m) {
   m.def("render", &render_from_python, py::arg("scene"), py::arg("camera"), py::arg("lights"), py::arg("materials"),
         py::arg("settings") = py::none(), py::arg("progress") = py::none(),
         "Renders a committed raylab.Scene; progress(fraction) is called several times a second and "
-        "cancels the render by returning True.");
+        "cancels the render by returning True. settings (all optional): super_sampling (1-4), max_depth, "
+        "shadows, background, ambient, robust_offset, fixed_epsilon, shadow_terminator, threads, tile_size.");
   m.def("write_image", &write_image_from_python, py::arg("path"), py::arg("image"),
         "Writes an (H, W, 4) linear image: .png 8-bit sRGB-encoded, .exr float.");
 }

@@ -74,12 +74,13 @@ struct PlacedInstance {
   glm::mat3 normal_matrix;  // inverse transpose of its linear part
 };
 
-// The cosine of the light direction `l` to the shading normal `n`, or 0 when the light is behind
-// either it or the geometric normal `ng`: a smooth normal leaning past its face must not let light
-// through the face from behind.
-float light_cosine(const glm::vec3& n, const glm::vec3& ng, const glm::vec3& l) {
+// The cosine of the light direction `l` to the shading normal `n`, or 0 when the light is behind it,
+// or behind the geometric normal `ng` unless `past_face` (a smooth hit whose shadow ray, from the
+// shadow-terminator point, decides): a smooth normal leaning past its face must not let light through
+// the face from behind.
+float light_cosine(const glm::vec3& n, const glm::vec3& ng, const glm::vec3& l, bool past_face) {
   const float cos_n = glm::dot(n, l);
-  return cos_n > 0.0f && glm::dot(ng, l) > 0.0f ? cos_n : 0.0f;
+  return cos_n > 0.0f && (past_face || glm::dot(ng, l) > 0.0f) ? cos_n : 0.0f;
 }
 
 // The interpolated smooth normal at a hit, in world space, on the side of `nf` (the geometric normal
@@ -92,6 +93,29 @@ glm::vec3 shading_normal(const PlacedInstance& inst, const Hit& hit, const glm::
   if (!(length > 0.0f) || !std::isfinite(length)) return nf;
   n /= length;
   return glm::dot(n, nf) < 0.0f ? -n : n;
+}
+
+// Hanika 2021, "Hacking the shadow terminator": the hit point lifted onto the curved surface that
+// the corner normals imply. Each corner's tangent plane takes the point; where it lies below that
+// plane it is raised onto it, and the raised points are blended with the barycentrics. Only a
+// convex corner raises: a point above a tangent plane stays. Of the lift only the height over the
+// face is kept: normals leaning far from the face would otherwise slide the point along it, off the
+// triangle. Object space: an affine map keeps points on planes, so the world point is the
+// transformed one. `side` (+1 or -1) turns the normals to the side of the face the ray came from.
+glm::vec3 terminator_point(const glm::vec3 corner[3], const glm::vec3* normals, const float weight[3],
+                           const glm::vec3& p, float side) {
+  const glm::vec3 face = glm::cross(corner[1] - corner[0], corner[2] - corner[0]);
+  const float face_length = glm::length(face);
+  if (!(face_length > 0.0f)) return p;
+  glm::vec3 lift(0.0f);
+  for (int i = 0; i < 3; ++i) {
+    const float length = glm::length(normals[i]);
+    if (!(length > 0.0f)) continue;
+    const glm::vec3 n = normals[i] * (side / length);
+    lift -= weight[i] * std::min(0.0f, glm::dot(p - corner[i], n)) * n;
+  }
+  const glm::vec3 up = face / face_length;
+  return p + glm::dot(lift, up) * up;
 }
 
 class Tracer {
@@ -134,9 +158,12 @@ class Tracer {
     return diffuse * glm::one_over_pi<float>() * e;
   }
   // `n` shades (the Phong terms); the geometric `ng` places the shadow rays and hides lights behind.
+  // `shadow_p` is where shadow rays start (the terminator point of a smooth hit); `past_face` lets
+  // light in front of `n` but behind `ng` through.
   glm::vec3 direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
-                         const glm::vec3& p, const glm::vec3& n, const glm::vec3& ng, const glm::vec3& v,
-                         RenderStats& stats, PixelRandom& random, glm::vec3& specular) const;
+                         const glm::vec3& p, const glm::vec3& shadow_p, const glm::vec3& n, const glm::vec3& ng,
+                         bool past_face, const glm::vec3& v, RenderStats& stats, PixelRandom& random,
+                         glm::vec3& specular) const;
 
   const Scene& scene_;
   std::vector<PlacedInstance> instances_;
@@ -151,16 +178,20 @@ class Tracer {
 // picture with no extra factor. The sun's strength is irradiance: strength * cos(theta). An area
 // light splits its energy over its samples, each radiating only forwards with an extra cosine.
 glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
-                               const glm::vec3& p, const glm::vec3& n, const glm::vec3& ng, const glm::vec3& v,
-                               RenderStats& stats, PixelRandom& random, glm::vec3& specular) const {
+                               const glm::vec3& p, const glm::vec3& shadow_p, const glm::vec3& n,
+                               const glm::vec3& ng, bool past_face, const glm::vec3& v, RenderStats& stats,
+                               PixelRandom& random, glm::vec3& specular) const {
   const Light& light = *pl.light;
   const glm::vec3 radiant = light.color * light.energy;
-  const glm::vec3 origin = offset(p, ng);
+  const glm::vec3 origin = offset(shadow_p, ng);
+  // Light behind the face reaches a smooth hit only through a shadow ray, which the face itself
+  // stops where the shading normals lean past a flat surface: without one it stays out.
+  past_face = past_face && settings_.shadows && light.shadows;
   constexpr float kFourPi = 4.0f * glm::pi<float>();
 
   if (light.type == LightType::Sun) {
     const glm::vec3 l = -pl.axis;
-    const float cos_n = light_cosine(n, ng, l);
+    const float cos_n = light_cosine(n, ng, l, past_face);
     if (cos_n <= 0.0f) return glm::vec3(0.0f);
     const glm::vec3 e = radiant * cos_n * visibility(origin, l, kInfinity, light.shadows, stats);
     return phong(m, diffuse, n, v, l, e, specular);
@@ -179,7 +210,7 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
         if (!(r2 > 0.0f)) continue;
         const float r = std::sqrt(r2);
         const glm::vec3 l = to_light / r;
-        const float cos_n = light_cosine(n, ng, l), cos_light = glm::dot(pl.axis, -l);
+        const float cos_n = light_cosine(n, ng, l, past_face), cos_light = glm::dot(pl.axis, -l);
         if (cos_n <= 0.0f || cos_light <= 0.0f) continue;
         const glm::vec3 e = per_sample * (cos_n * cos_light / r2) * visibility(origin, l, r, light.shadows, stats);
         sum += phong(m, diffuse, n, v, l, e, specular);
@@ -192,7 +223,7 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
   if (!(r2 > 0.0f)) return glm::vec3(0.0f);
   const float r = std::sqrt(r2);
   const glm::vec3 l = to_light / r;
-  const float cos_n = light_cosine(n, ng, l);
+  const float cos_n = light_cosine(n, ng, l, past_face);
   if (cos_n <= 0.0f) return glm::vec3(0.0f);
   float factor = cos_n / (kFourPi * r2);
   if (light.type == LightType::Spot) factor *= spot_attenuation(glm::dot(pl.axis, -l), light.spot_size, light.spot_blend);
@@ -218,8 +249,21 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   // relative to the point itself, as the integer-ulp offset assumes. From the ray, the error would be
   // relative to the ray's length and origin, and a far camera would sink points below a floor
   // through the origin by more than the offset lifts them.
-  const glm::vec3 p = glm::vec3(inst.transform * glm::vec4((1.0f - hit.u - hit.v) * a + hit.u * b + hit.v * c, 1.0f));
+  const float weight[3] = {1.0f - hit.u - hit.v, hit.u, hit.v};
+  const glm::vec3 p_object = weight[0] * a + weight[1] * b + weight[2] * c;
+  const glm::vec3 p = glm::vec3(inst.transform * glm::vec4(p_object, 1.0f));
   const glm::vec3 v = -d;
+  // Smooth hits get the shadow-terminator point; the side of the face the ray came from picks the
+  // normals' orientation (ns already faces nf).
+  const bool terminator = settings_.shadow_terminator && inst.shading_normals != nullptr && ns != nf;
+  glm::vec3 shadow_p = p;
+  if (terminator) {
+    const glm::vec3 corner[3] = {a, b, c};
+    const glm::vec3* normals = inst.shading_normals->data() + 3 * size_t(hit.triangle);
+    const glm::vec3 interpolated = weight[0] * normals[0] + weight[1] * normals[1] + weight[2] * normals[2];
+    const float side = glm::dot(inst.normal_matrix * interpolated, nf) < 0.0f ? -1.0f : 1.0f;
+    shadow_p = glm::vec3(inst.transform * glm::vec4(terminator_point(corner, normals, weight, p_object, side), 1.0f));
+  }
 
   const float kr = m.reflectivity + m.metallic * (1.0f - m.reflectivity);
   const glm::vec3 tint = glm::mix(glm::vec3(1.0f), m.diffuse, m.metallic);
@@ -227,7 +271,7 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
 
   glm::vec3 specular(0.0f);
   glm::vec3 local = m.ambient * settings_.ambient * diffuse;
-  for (const PlacedLight& pl : lights_) local += direct_light(pl, m, diffuse, p, ns, nf, v, stats, random, specular);
+  for (const PlacedLight& pl : lights_) local += direct_light(pl, m, diffuse, p, shadow_p, ns, nf, terminator, v, stats, random, specular);
 
   const float t = m.transmission;
   glm::vec3 color = specular + (1.0f - t) * (1.0f - kr) * local;

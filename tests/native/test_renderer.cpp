@@ -384,4 +384,10 @@ TEST(ShadingNormals, DoNotLetLightThroughTheFaceFromBehind) {
   f.lights[0].matrix_world = glm::translate(glm::mat4(1.0f), glm::vec3(10, 0, -0.5f));
   f.settings.shadows = false;
   EXPECT_EQ(pixel(f.run(), 16, 16), glm::vec3(0.0f));
+  // With shadows a smooth hit lets light behind its face in, for the shadow ray to decide: from the
+  // terminator point, a little above the floor, it runs into the floor itself.
+  f.lights[0].matrix_world = glm::translate(glm::mat4(1.0f), glm::vec3(10, 0, -3.0f));
+  f.settings.shadows = true;
+  ASSERT_TRUE(f.settings.shadow_terminator);
+  EXPECT_EQ(pixel(f.run(), 16, 16), glm::vec3(0.0f));
 }

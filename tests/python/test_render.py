@@ -288,6 +288,60 @@ def test_smooth_normals_render_a_sphere_without_facets():
         assert np.array_equal(render_sphere(vertices, structure).image, smooth.image), structure
 
 
+def terminator_render(shadow_terminator, shadows=True):
+    """A coarse smooth sphere lit by a sun from the side, seen from the front: the terminator runs
+    down the middle. Returns the render and, per pixel, the smooth normal's cosine to the light
+    (interpolated from the vertex normals at the primary hit; NaN off the sphere)."""
+    vertices, triangles = uv_sphere(segments=12, rings=6)
+    scene = raylab.Scene()
+    scene.add_instance(scene.add_mesh(vertices, triangles, normals=vertices), np.eye(4))
+    scene.commit()
+    size = 96
+    camera = dict(type="PERSP", matrix_world=look_at((0.0, -6.0, 0.0), (0.0, 0.0, 0.0)), lens=50.0,
+                  resolution_x=size, resolution_y=size)
+    to_light = np.array([1.0, -0.3, 0.2]) / np.linalg.norm([1.0, -0.3, 0.2])
+    sun = np.eye(4)
+    sun[:3, :3] = look_at((0.0, 0.0, 0.0), -to_light)[:3, :3]  # a sun shines along its local -Z
+    lights = [dict(type="SUN", color=(1.0, 1.0, 1.0), energy=3.0, matrix_world=sun)]
+    materials = [dict(diffuse=(0.8, 0.8, 0.8), specular=0.0)]
+    settings = dict(ambient=(0.0, 0.0, 0.0), shadows=shadows, shadow_terminator=shadow_terminator)
+    result = raylab.render(scene, camera, lights, materials, settings)
+    # The same pixels' primary rays, to know the smooth normal under each pixel.
+    eye = np.array([0.0, -6.0, 0.0])
+    half = math.tan(math.atan(0.5 * 36.0 / 50.0))
+    x = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    px, pz = np.meshgrid(x * half, -x * half)
+    directions = np.stack([px, np.ones_like(px), pz], -1).reshape(-1, 3)
+    hits = scene.intersect(np.broadcast_to(eye, directions.shape), directions)
+    w = np.stack([1.0 - hits.u - hits.v, hits.u, hits.v], -1)
+    tri = np.where(hits.hit, hits.triangle, 0)
+    normal = (w[:, :, None] * vertices[triangles[tri]]).sum(1)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    cosine = np.where(hits.hit, normal @ to_light, np.nan).reshape(size, size)
+    return result, cosine
+
+
+def test_shadow_terminator_follows_the_smooth_normals():
+    """Where the smooth normal faces the light, the pixel is lit: without the terminator point the
+    facets' own edges cut the light off in steps (Hanika 2021)."""
+    on, cosine = terminator_render(True)
+    off, _ = terminator_render(False)
+    brightness_on, brightness_off = on.image[..., :3].mean(-1), off.image[..., :3].mean(-1)
+    assert np.array_equal(on.instance >= 0, ~np.isnan(cosine))  # the test's rays are the render's
+    lit = cosine > 0.05  # in front of the light by the smooth normal
+    lambert = 0.8 / math.pi * 3.0 * cosine  # albedo / pi * sun strength * cosine: smooth shading's value
+    cut_off = brightness_off[lit] < 0.5 * lambert[lit]
+    print(f"pixels lit by the smooth normal: {int(lit.sum())}; cut off by the facets: {int(cut_off.sum())} without "
+          f"the terminator point, {int((brightness_on[lit] < 0.5 * lambert[lit]).sum())} with it")
+    assert cut_off.mean() > 0.03  # the facet steps are there without it
+    assert np.allclose(brightness_on[lit], lambert[lit], rtol=0.01)
+    # Away from the terminator nothing changes, and unshadowed light is the same either way.
+    far = cosine > 0.5
+    assert np.allclose(brightness_on[far], brightness_off[far], atol=1e-6)
+    unshadowed, _ = terminator_render(True, shadows=False)
+    assert np.allclose(unshadowed.image[far], on.image[far], atol=1e-6)
+
+
 def test_face_normals_render_as_flat_shading():
     vertices, triangles = uv_sphere()
     flat = render_sphere(None)

@@ -119,6 +119,7 @@ class RAYLAB_PT_render_settings(RaylabRenderPanel, bpy.types.Panel):
         layout.prop(props, "max_recursion")
         layout.prop(props, "shadows")
         layout.prop(props, "robust_offset")
+        layout.prop(props, "shadow_terminator")
         layout.prop(props, "tile_size")
         layout.label(text="World colour: background and ambient", icon='WORLD')
 

@@ -26,6 +26,10 @@ class RaylabRenderSettings(bpy.types.PropertyGroup):
         name="Robust Offset", default=True,
         description="Start secondary rays from an offset in integer ulps along the normal; "
                     "off uses a fixed epsilon of 1e-4 (shows shadow acne at large scales)")
+    shadow_terminator: BoolProperty(
+        name="Shadow Terminator", default=True,
+        description="Smooth-shaded surfaces: shadow rays start from the curved surface the normals imply "
+                    "(Hanika 2021), so the light's edge follows the smooth shading, not the facets")
     tile_size: IntProperty(name="Tile Size", default=32, min=8, max=512,
                            description="Pixels per side of a render tile")
 

@@ -220,4 +220,5 @@ def render_settings(exported, props, super_sampling=None):
     """The renderer's settings from scene.raylab_render; the world colour is background and ambient."""
     return dict(super_sampling=super_sampling or props.super_sampling, max_depth=props.max_recursion,
                 shadows=props.shadows, background=exported.background, ambient=exported.background,
-                robust_offset=props.robust_offset, tile_size=props.tile_size, threads=0)
+                robust_offset=props.robust_offset, shadow_terminator=props.shadow_terminator,
+                tile_size=props.tile_size, threads=0)

@@ -26,6 +26,10 @@ struct RenderSettings {
   glm::vec3 ambient{1.0f};  // scaled by each material's `ambient` and diffuse colour
   bool robust_offset = true;     // Wächter-Binder offset (ray_offset.h); false: fixed epsilon
   float fixed_epsilon = 1e-4f;   // along the normal, when robust_offset is false
+  // Smooth-shaded hits: shadow rays start from the curved surface the shading normals imply (Hanika
+  // 2021), and light behind the flat face but in front of the shading normal counts, so the
+  // terminator follows the smooth normals instead of the facets.
+  bool shadow_terminator = true;
   int threads = 0;               // 0: all
   int tile_size = 32;
 
