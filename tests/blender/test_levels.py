@@ -149,24 +149,29 @@ def test_aabb_2_ticks_when_the_ray_misses_the_box_then_grazes_it():
     assert tick(scene)[:3] == [True, True, True]
 
 
-def test_where_methods_fail_ticks_a_render_then_a_new_render_with_the_robust_offset():
+def test_where_methods_fail_ticks_the_leak_test_then_renders_with_each_setting():
     scene = levels.open_level(bpy.context, "where_methods_fail")
     assert scene.render.engine == "RAYLAB", "a level renders with raylab"
     scene.render.resolution_x, scene.render.resolution_y = 64, 48
-    assert timer_tick(scene) == [False, False, False]
+    assert timer_tick(scene) == [False, False, False, False]
     assert bpy.ops.raylab.level_leak_test() == {'FINISHED'}
     leaks = scene[levels.LEAK_KEY]
     # Rays from inside the closed sphere through its vertices and edges: the watertight test lets none
     # out, Möller–Trumbore some (the lesson of the level).
     assert leaks["rays"] > 1000 and leaks["watertight"] == 0 and leaks["moller_trumbore"] > 0
-    assert timer_tick(scene) == [True, False, False]
+    assert timer_tick(scene) == [True, False, False, False]
     bpy.ops.render.render()
     assert "raylab_last_render" in scene
-    assert timer_tick(scene) == [True, True, False]
+    assert timer_tick(scene) == [True, True, False, False]
     scene.raylab_render.robust_offset = True
-    assert timer_tick(scene) == [True, True, False], "the old render does not count for the new task"
+    assert timer_tick(scene) == [True, True, False, False], "the old render does not count for the new task"
     bpy.ops.render.render()
-    assert timer_tick(scene) == [True, True, True]
+    assert timer_tick(scene) == [True, True, True, False]
+    assert scene.raylab_render.shadow_terminator is False  # the level starts without it
+    scene.raylab_render.shadow_terminator = True
+    assert timer_tick(scene) == [True, True, True, False]
+    bpy.ops.render.render()
+    assert timer_tick(scene) == [True, True, True, True]
 
 
 def test_race_ticks_when_the_comparison_has_all_four_structures():

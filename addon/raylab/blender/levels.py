@@ -394,7 +394,8 @@ def _new_scene(level):
 
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     sun.data.energy = 3.0
-    sun.rotation_euler = (math.radians(40.0), math.radians(15.0), math.radians(30.0))
+    # [scene] sun_rotation: XYZ Euler degrees, as Blender's Rotation field shows them.
+    sun.rotation_euler = [math.radians(float(a)) for a in level.scene.get("sun_rotation", (40.0, 15.0, 30.0))]
     sun.location = Vector((3.0, -3.0, 5.0)) * s
     scene.collection.objects.link(sun)
 
