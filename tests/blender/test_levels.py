@@ -18,7 +18,7 @@ from mathutils import Matrix, Vector
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import levels, overlay, probe  # noqa: E402
+from raylab.blender import leak_overlay, levels, overlay, probe  # noqa: E402
 
 LEVELS_DIR = os.path.join(ROOT, "levels")
 LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
@@ -159,6 +159,13 @@ def test_where_methods_fail_ticks_the_leak_test_then_renders_with_each_setting()
     # Rays from inside the closed sphere through its vertices and edges: the watertight test lets none
     # out, Möller–Trumbore some (the lesson of the level).
     assert leaks["rays"] > 1000 and leaks["watertight"] == 0 and leaks["moller_trumbore"] > 0
+    # The escaped rays, for the viewport: from the centre out through the surface, where they slipped.
+    starts, ends, crossings = leak_overlay.leak_segments(scene)
+    assert len(crossings) == min(leaks["moller_trumbore"], levels.MAX_LEAKS_DRAWN)
+    obj = levels.level_mesh_object(scene)
+    radius = np.linalg.norm(crossings - np.array(obj.matrix_world.translation), axis=1)
+    assert np.allclose(radius, radius.mean(), rtol=0.02)  # all on the sphere: vertices and edge midpoints
+    assert np.all(np.linalg.norm(ends - starts, axis=1) > radius)  # drawn on past the surface
     assert timer_tick(scene) == [True, False, False, False]
     bpy.ops.render.render()
     assert "raylab_last_render" in scene

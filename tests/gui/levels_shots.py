@@ -41,7 +41,7 @@ def finish():
 
 try:
     import raylab  # noqa: E402
-    from raylab.blender import levels, probe  # noqa: E402
+    from raylab.blender import leak_overlay, levels, probe  # noqa: E402
 except Exception:
     report["error"] = traceback.format_exc()
     finish()
@@ -125,6 +125,19 @@ def describe(level_id):
     report["levels"][level_id] = entry
 
 
+def describe_leaks(level_id):
+    """The escaped rays of the leak test, projected into the viewport as the overlay draws them."""
+    _, area, region, _ = view3d()
+    rv3d = area.spaces.active.region_3d
+    starts, ends, _ = leak_overlay.leak_segments(bpy.context.scene)
+    segments = []
+    for a, b in zip(starts, ends):
+        pa, pb = location_3d_to_region_2d(region, rv3d, Vector(a)), location_3d_to_region_2d(region, rv3d, Vector(b))
+        if pa is not None and pb is not None:
+            segments.append(((pa.x, pa.y), (pb.x, pb.y)))
+    report["levels"][level_id]["leak_segments"] = segments
+
+
 def steps_for(level_id):
     """Each step runs in its own timer callback, so the window redraws in between."""
 
@@ -145,8 +158,19 @@ def steps_for(level_id):
     def shoot_probe_off():
         screenshot(f"level_{level_id}_probe_off.png")
 
+    def count_leaks():
+        bpy.ops.raylab.level_leak_test()
+
+    def shoot_leaks():
+        describe_leaks(level_id)
+        screenshot(f"level_{level_id}_leaks.png")
+
     steps = [open_level, shoot_level, shoot_boxes_off]
-    return steps + [shoot_probe_off] if levels.find_level(level_id).settings["raylab"].get("probe_enabled") else steps
+    if levels.find_level(level_id).settings["raylab"].get("probe_enabled"):
+        steps.append(shoot_probe_off)
+    if level_id == "where_methods_fail":
+        steps += [count_leaks, shoot_leaks]
+    return steps
 
 
 STEPS = [step for level_id in LEVEL_IDS for step in steps_for(level_id)]

@@ -13,18 +13,20 @@ from gui_util import OUT, ROOT, Region, changed, dilate, load_rgb, read_report, 
     start_blend
 
 LEVELS = ("aabb_1", "octree_1", "octree_2")
+LEAK_LEVEL = "where_methods_fail"  # shot before and after Count Leaking Rays
 SCRIPT = os.path.join(ROOT, "tests", "gui", "levels_shots.py")
 
 
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
-    stale = ["levels_shots.json"] + [f"level_{level}{suffix}.png" for level in LEVELS
-                                     for suffix in ("", "_boxes_off", "_probe_off")]
+    stale = ["levels_shots.json"] + [f"level_{level}{suffix}.png" for level in (*LEVELS, LEAK_LEVEL)
+                                     for suffix in ("", "_boxes_off", "_probe_off", "_leaks")]
     for name in stale:
         if os.path.exists(os.path.join(OUT, name)):
             os.remove(os.path.join(OUT, name))
     blend = start_blend(tmp_path_factory.mktemp("levels"))
-    process = run_gui_blender(SCRIPT, [OUT, *LEVELS], blend, timeout=300, extra=["--enable-event-simulate"])
+    process = run_gui_blender(SCRIPT, [OUT, *LEVELS, LEAK_LEVEL], blend, timeout=300,
+                              extra=["--enable-event-simulate"])
     return read_report(os.path.join(OUT, "levels_shots.json"), process)["levels"]
 
 
@@ -85,3 +87,19 @@ def test_the_levels_panel_shows_the_open_level(shots):
         assert white.sum() > 5000, f"{level_id}: no diagram in the Levels panel"
     for a, b in zip(sidebars, sidebars[1:]):
         assert changed(a, b).mean() > 0.05
+
+
+def test_count_leaking_rays_draws_the_escaped_rays_in_red(shots):
+    entry = shots[LEAK_LEVEL]
+    region, (before, after) = images(shots, LEAK_LEVEL, "_boxes_off", "_leaks")
+    inside = viewport_mask(entry, region, after.shape[:2])
+    drawn = changed(before, after, threshold=0.15) & inside
+    def reddish(image):
+        return (image[..., 0] > 0.6) & (image[..., 1] < 0.4) & (image[..., 2] < 0.4) & inside
+
+    red = reddish(after) & ~reddish(before)  # the grid's x axis is red already
+    assert red.sum() > 300, "no red rays in the viewport after Count Leaking Rays"
+    # The new red lies on the escaped rays as the test projects them.
+    rays = dilate(segments_mask(region, entry["leak_segments"], after.shape[:2]), 4)
+    assert (red & rays).sum() / red.sum() > 0.9
+    assert (drawn & rays).sum() / drawn.sum() > 0.8

@@ -136,6 +136,8 @@ class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
             box.label(text=f"Leak test: {leaks['rays']:,} rays from inside", icon='MOD_FLUIDSIM')
             box.label(text=f"Möller–Trumbore: {leaks['moller_trumbore']:,} leaked")
             box.label(text=f"watertight: {leaks['watertight']:,} leaked")
+            if leaks.get("escaped"):
+                box.label(text="Escaped rays: red in the viewport", icon='INFO')
         if tasks and first_open is None:
             layout.label(text="All done: on to the next level!", icon='FUND')
         controls = current_level(context).controls

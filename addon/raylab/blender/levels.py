@@ -644,12 +644,15 @@ def _check_timer():
 # --- the leak experiment of where_methods_fail ------------------------------------------------------
 
 LEAK_KEY = "raylab_leak_test"
+MAX_LEAKS_DRAWN = 400
 
 
 def leak_test(scene):
     """Shoots rays from the centre of the level mesh's box through every vertex and every edge midpoint,
     the places where two triangles meet, with each triangle test. From inside a closed mesh every ray
-    must hit; the ones that hit nothing leaked. Stores and returns {rays, moller_trumbore, watertight}."""
+    must hit; the ones that hit nothing leaked. Stores and returns {rays, moller_trumbore, watertight,
+    centre, escaped, mesh}: the box centre and the points the first MAX_LEAKS_DRAWN escaped rays passed
+    through (object space, flat lists), for the viewport to draw; `mesh` names the mesh they belong to."""
     obj = level_mesh_object(scene)
     if obj is None:
         raise LevelError("the scene is not a level (open one first)")
@@ -660,11 +663,14 @@ def leak_test(scene):
     directions = targets - centre
     keep = np.linalg.norm(directions, axis=1) > 0  # a vertex at the very centre gives no direction
     origins = np.repeat(centre[None].astype(np.float32), int(keep.sum()), axis=0)
-    result = {"rays": int(keep.sum())}
+    result = {"rays": int(keep.sum()), "centre": [float(c) for c in centre], "mesh": obj.data.name}
     for test in ("moller_trumbore", "watertight"):
         # Every triangle tested for every ray: the count measures the triangle test alone.
         structure = raylab.build(vertices, triangles, structure="none", triangle_test=test)
-        result[test] = int((~structure.intersect(origins, directions[keep]).hit).sum())
+        missed = ~structure.intersect(origins, directions[keep]).hit
+        result[test] = int(missed.sum())
+        if test == "moller_trumbore":
+            result["escaped"] = targets[keep][missed][:MAX_LEAKS_DRAWN].ravel().tolist()
     scene[LEAK_KEY] = result
     return result
 

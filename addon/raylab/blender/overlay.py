@@ -144,6 +144,23 @@ def draw_batch(batch, model_matrix, xray, shader_name=THIN, width=1.0, point_siz
     gpu.state.blend_set('NONE')
 
 
+def draw_segments(starts, ends, colors, xray, width):
+    """World-space segments (N,3)-(N,3), one RGBA colour each; wide ones with the polyline shader."""
+    positions = np.ascontiguousarray(np.stack([starts, ends], axis=1).reshape(-1, 3), dtype=np.float32)
+    shader = THICK if width > 1.0 else THIN
+    batch = make_batch('LINES', positions, np.repeat(colors, 2, axis=0), shader_name=shader)
+    draw_batch(batch, np.identity(4), xray, shader, width)
+
+
+def draw_points(points, color, xray, size):
+    """World-space points (N,3) in one RGBA colour, `size` pixels across."""
+    if len(points) == 0:
+        return
+    positions = np.ascontiguousarray(points, dtype=np.float32)
+    colors = np.tile(np.asarray(color, dtype=np.float32), (len(points), 1))
+    draw_batch(make_batch('POINTS', positions, colors), np.identity(4), xray, point_size=size)
+
+
 def _draw_boxes():
     context = bpy.context
     scene = context.scene

@@ -321,7 +321,7 @@ def _draw_view():
         origins, ends, statuses = result.fan
         colors = np.array([STATUS_COLORS[s] for s in statuses], dtype=np.float32)
         colors[:, 3] = 0.7
-        _draw_segments(origins, ends, colors, xray, 1.0)
+        overlay.draw_segments(origins, ends, colors, xray, 1.0)
     drawing = result.drawing
     if drawing is None:
         return
@@ -330,16 +330,9 @@ def _draw_view():
         _draw_boxes(visited_lo, visited_hi, VISITED_COLOR, model, xray, 3.0)
     start, end = drawing["ray"]
     color = np.array([STATUS_COLORS[result.public["status"]]], dtype=np.float32)
-    _draw_segments(start[None], end[None], color, xray, 3.0)
-    _draw_points(drawing["entries"], ENTRY_COLOR, xray, 7.0)
-    _draw_points(drawing["hits"], HIT_COLOR, xray, 12.0)
-
-
-def _draw_segments(starts, ends, colors, xray, width):
-    positions = np.ascontiguousarray(np.stack([starts, ends], axis=1).reshape(-1, 3), dtype=np.float32)
-    shader = overlay.THICK if width > 1.0 else overlay.THIN
-    batch = overlay.make_batch('LINES', positions, np.repeat(colors, 2, axis=0), shader_name=shader)
-    overlay.draw_batch(batch, np.identity(4), xray, shader, width)
+    overlay.draw_segments(start[None], end[None], color, xray, 3.0)
+    overlay.draw_points(drawing["entries"], ENTRY_COLOR, xray, 7.0)
+    overlay.draw_points(drawing["hits"], HIT_COLOR, xray, 12.0)
 
 
 def _draw_boxes(lo, hi, color, model, xray, width):
@@ -349,14 +342,6 @@ def _draw_boxes(lo, hi, color, model, xray, width):
     colors = np.tile(np.asarray(color, dtype=np.float32), (len(positions), 1))
     batch = overlay.make_batch('LINES', positions, colors, indices, overlay.THICK)
     overlay.draw_batch(batch, model, xray, overlay.THICK, width)
-
-
-def _draw_points(points, color, xray, size):
-    if len(points) == 0:
-        return
-    positions = np.ascontiguousarray(points, dtype=np.float32)
-    colors = np.tile(np.asarray(color, dtype=np.float32), (len(points), 1))
-    overlay.draw_batch(overlay.make_batch('POINTS', positions, colors), np.identity(4), xray, point_size=size)
 
 
 def _draw_text():
