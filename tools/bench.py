@@ -65,7 +65,8 @@ QUICK = {
     "leaks": {"meshes": ["goathead"], "rays_per_kind": 1000, "reps": 1},
     "self_hits": {"scales": [1e-3, 1, 1e5], "width": 24, "height": 18},
 }
-DISAGREEMENT_KINDS = ("same", "rounding", "shared_edge_vertex", "coincident_faces", "edge_ray", "grazing", "unexplained")
+DISAGREEMENT_KINDS = ("same", "rounding", "shared_edge_vertex", "coincident_faces", "edge_ray", "edge_ray_passed",
+                      "grazing", "unexplained")
 
 
 def log(*args):
@@ -139,7 +140,8 @@ def on_edge(V, T, triangles, points, origins):
         opposite = np.stack([np.linalg.norm(p[(i + 2) % 3] - p[(i + 1) % 3], axis=1) for i in range(3)], axis=1)
         distance = b * (twice_area[:, None] / opposite)
     scale = np.maximum(np.max(np.abs(np.stack(p, axis=1)), axis=(1, 2)), np.abs(origins).max(axis=1))
-    return (b.min(axis=1) < 1e-5) | (distance.min(axis=1) < 1e-6 * scale)
+    # a degenerate triangle is all edge, as in the C++
+    return (twice_area == 0) | (b.min(axis=1) < 1e-5) | (distance.min(axis=1) < 1e-6 * scale)
 
 
 def classify(V, T, origins, directions, a_t, a_tri, b_t, b_tri):
@@ -166,21 +168,27 @@ def classify(V, T, origins, directions, a_t, a_tri, b_t, b_tri):
     kind = np.full(len(a_t), "unexplained", dtype=object)
     kind[~a_hit & ~b_hit] = "same"
     one = a_hit != b_hit
-    kind[one & np.where(a_hit, a_edge, b_edge)] = "edge_ray"
+    kind[one & a_hit & a_edge] = "edge_ray"          # the first tracer hits an edge the second passes
+    kind[one & b_hit & b_edge] = "edge_ray_passed"   # the reverse
     both = a_hit & b_hit
     with np.errstate(invalid="ignore"):
         dt = np.abs(a_t - b_t) / np.maximum(np.maximum(np.abs(a_t), np.abs(b_t)), 1e-30)
     same_tri = both & (a_tri == b_tri)
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cosine = np.abs((unit * normal).sum(1)) / np.linalg.norm(normal, axis=1)
+    kind[same_tri & (dt > 1e-5) & ~same_plane_point & ~(cosine >= 1e-3)] = "grazing"
     kind[same_tri & (dt > 1e-5) & same_plane_point] = "rounding"
     kind[same_tri & (dt <= 1e-5)] = "same"
     diff = both & (a_tri != b_tri)
     ta, tb = T[np.where(diff, a_tri, 0)], T[np.where(diff, b_tri, 0)]
     shares = (ta[:, :, None] == tb[:, None, :]).any(axis=(1, 2))
     tie = diff & ((dt <= 1e-6) | same_point)
-    kind[tie & shares] = "shared_edge_vertex"
+    kind[tie & shares & a_edge & b_edge] = "shared_edge_vertex"  # neighbours share only their edge
     kind[tie & ~shares] = "coincident_faces"
-    nearer_edge = np.where(a_t < b_t, a_edge, b_edge)
-    kind[diff & ~tie & nearer_edge] = "edge_ray"
+    a_nearer = a_t < b_t
+    kind[diff & ~tie & a_nearer & a_edge] = "edge_ray"
+    kind[diff & ~tie & ~a_nearer & b_edge] = "edge_ray_passed"
     return {k: int((kind == k).sum()) for k in DISAGREEMENT_KINDS} | {"rays": len(a_t)}
 
 
@@ -573,10 +581,11 @@ def markdown(results):
     lines += ["", "Kinds: *same* (both miss, or the same triangle at t within 1e-5 relative); *rounding* (the same "
               "triangle, t differs, but both hit points lie on its plane within 1e-6 of the coordinates' magnitude: a "
               "slide along the face, which a short t or a grazing ray magnifies); *shared_edge_vertex* (different triangles sharing a vertex at the "
-              "same point: an exact edge or vertex hit owned by both); *coincident_faces* (the same, without a "
-              "shared vertex); *edge_ray* (hit against miss, or a nearer hit the other passed, on an edge: within "
-              "1e-5 barycentric or 1e-6 of the magnitude of the corners and the ray origin; Embree's default test is "
-              "not watertight); "
+              "same point, on an edge of both: an exact edge or vertex hit owned by both); *coincident_faces* "
+              "(different triangles without a shared vertex at the same point: overlapping faces); *edge_ray* (the row's tracer hits a triangle on its edge, within 1e-5 barycentric or "
+              "1e-6 of the magnitude of the corners and the ray origin, where Embree misses or hits farther: "
+              "Embree's default test is not watertight); *edge_ray_passed* (the reverse: Embree hits an edge the "
+              "row's tracer passes); "
               "*grazing* (same triangle, t differs, ray almost parallel to the face); *unexplained*.", ""]
     lines += disagreement_examples(results)
     th = results["thesis"]

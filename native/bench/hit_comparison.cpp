@@ -131,6 +131,7 @@ const char* agreement_name(Agreement a) {
     case Agreement::SharedEdgeVertex: return "shared_edge_vertex";
     case Agreement::CoincidentFaces: return "coincident_faces";
     case Agreement::EdgeRay: return "edge_ray";
+    case Agreement::EdgeRayPassed: return "edge_ray_passed";
     case Agreement::Grazing: return "grazing";
     case Agreement::Unexplained: return "unexplained";
   }
@@ -139,20 +140,25 @@ const char* agreement_name(Agreement a) {
 
 Agreement classify(const TriangleMesh& mesh, const Ray& ray, const Hit& ours, const Hit& theirs) {
   if (!ours.valid() && !theirs.valid()) return Agreement::Same;
-  if (ours.valid() != theirs.valid())
-    return near_edge(mesh, ray, ours.valid() ? ours : theirs) ? Agreement::EdgeRay : Agreement::Unexplained;
+  // One tracer found a hit (or a nearer one) the other passed by: explained when that hit is on an edge.
+  auto passed_edge = [&](bool ours_nearer) {
+    if (!near_edge(mesh, ray, ours_nearer ? ours : theirs)) return Agreement::Unexplained;
+    return ours_nearer ? Agreement::EdgeRay : Agreement::EdgeRayPassed;
+  };
+  if (ours.valid() != theirs.valid()) return passed_edge(ours.valid());
   const double dt = relative_difference(ours.t, theirs.t);
   if (ours.triangle == theirs.triangle) {
     if (dt <= kSameT) return Agreement::Same;
     if (same_plane_point(mesh, ray, ours, theirs)) return Agreement::Rounding;
     return grazing(mesh, ray, ours.triangle) ? Agreement::Grazing : Agreement::Unexplained;
   }
-  if (dt <= kExactTie || same_point(ray, ours, theirs))
-    return share_vertex(mesh, ours.triangle, theirs.triangle) ? Agreement::SharedEdgeVertex
-                                                              : Agreement::CoincidentFaces;
-  // One tracer found a nearer hit the other passed by: explained when that hit is at an edge.
-  const Hit& nearer = ours.t < theirs.t ? ours : theirs;
-  return near_edge(mesh, ray, nearer) ? Agreement::EdgeRay : Agreement::Unexplained;
+  if (dt <= kExactTie || same_point(ray, ours, theirs)) {
+    if (!share_vertex(mesh, ours.triangle, theirs.triangle)) return Agreement::CoincidentFaces;
+    // Neighbours own a point together only on their common edge: elsewhere one of them is wrong.
+    return near_edge(mesh, ray, ours) && near_edge(mesh, ray, theirs) ? Agreement::SharedEdgeVertex
+                                                                      : Agreement::Unexplained;
+  }
+  return passed_edge(ours.t < theirs.t);
 }
 
 Comparison compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
@@ -174,7 +180,9 @@ Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std:
     // The tracer that saw an occluder saw it as its closest hit too; that hit tells whether the ray
     // only touched an edge.
     const Hit& seen = ours[i] ? our_closest[i] : their_closest[i];
-    const Agreement kind = seen.valid() && near_edge(mesh, rays[i], seen) ? Agreement::EdgeRay : Agreement::Unexplained;
+    const Agreement kind = !seen.valid() || !near_edge(mesh, rays[i], seen) ? Agreement::Unexplained
+                           : ours[i]                                       ? Agreement::EdgeRay
+                                                                           : Agreement::EdgeRayPassed;
     keep(c, kind, rays[i], our_closest[i], their_closest[i]);
   }
   return c;

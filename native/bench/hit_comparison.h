@@ -20,17 +20,17 @@ enum class Agreement {
   Rounding,          // the same triangle, t differs, but both hit points lie on its plane within 1e-6
                      // of the coordinates' magnitude: the difference is a slide along the face, which
                      // a short t (the origin's rounding) or a grazing ray magnifies
-  SharedEdgeVertex,  // different triangles sharing a vertex, t within 1e-6 relative: an exact edge or
-                     // vertex hit that both adjacent triangles own, broken differently
+  SharedEdgeVertex,  // different triangles sharing a vertex at the same point, on an edge of both: an
+                     // exact edge or vertex hit that both adjacent triangles own, broken differently
   CoincidentFaces,   // different triangles sharing no vertex at the same t: overlapping faces
-  EdgeRay,           // one hits and the other misses (or hits farther), and the nearer hit lies on
-                     // its triangle's edge (1e-5 barycentric, or 1e-6 of the magnitude of the corners
-                     // and the ray origin):
-                     // the ray passes through an edge, where Embree's default test is not watertight
+  EdgeRay,           // raylab hits a triangle on its edge (1e-5 barycentric, or 1e-6 of the magnitude of
+                     // the corners and the ray origin) where Embree misses or hits farther: Embree's
+                     // default test is not watertight, and the ray slipped through the edge
+  EdgeRayPassed,     // the reverse: Embree hits on an edge that raylab passes
   Grazing,           // the same triangle, t differs: the ray is almost parallel to the face
   Unexplained,
 };
-inline constexpr int kAgreementKinds = 7;
+inline constexpr int kAgreementKinds = 8;
 const char* agreement_name(Agreement a);
 
 using AgreementCounts = std::array<uint64_t, kAgreementKinds>;

@@ -99,23 +99,26 @@ glm::vec3 shading_normal(const PlacedInstance& inst, const Hit& hit, const glm::
 // the corner normals imply. Each corner's tangent plane takes the point; where it lies below that
 // plane it is raised onto it, and the raised points are blended with the barycentrics. Only a
 // convex corner raises: a point above a tangent plane stays. Of the lift only the height over the
-// face is kept: normals leaning far from the face would otherwise slide the point along it, off the
-// triangle. Object space: an affine map keeps points on planes, so the world point is the
-// transformed one. `side` (+1 or -1) turns the normals to the side of the face the ray came from.
+// face, on the side the normals point to, is kept: normals leaning far from the face would otherwise
+// slide the point along it, off the triangle, or (leaning past 90 degrees) sink it behind the face.
+// Object space: an affine map keeps points on planes, so the world point is the transformed one.
+// `side` (+1 or -1) turns the normals to the side of the face the ray came from.
 glm::vec3 terminator_point(const glm::vec3 corner[3], const glm::vec3* normals, const float weight[3],
                            const glm::vec3& p, float side) {
   const glm::vec3 face = glm::cross(corner[1] - corner[0], corner[2] - corner[0]);
   const float face_length = glm::length(face);
   if (!(face_length > 0.0f)) return p;
-  glm::vec3 lift(0.0f);
+  glm::vec3 lift(0.0f), normal_sum(0.0f);
   for (int i = 0; i < 3; ++i) {
     const float length = glm::length(normals[i]);
-    if (!(length > 0.0f)) continue;
-    const glm::vec3 n = normals[i] * (side / length);
+    if (!(length > 0.0f) || !std::isfinite(length)) continue;
+    const glm::vec3 n = normals[i] / length * side;
     lift -= weight[i] * std::min(0.0f, glm::dot(p - corner[i], n)) * n;
+    normal_sum += weight[i] * n;
   }
-  const glm::vec3 up = face / face_length;
-  return p + glm::dot(lift, up) * up;
+  glm::vec3 up = face / face_length;
+  if (glm::dot(up, normal_sum) < 0.0f) up = -up;
+  return p + std::max(0.0f, glm::dot(lift, up)) * up;
 }
 
 class Tracer {
@@ -135,6 +138,13 @@ class Tracer {
  private:
   glm::vec3 offset(const glm::vec3& p, const glm::vec3& n) const {
     return settings_.robust_offset ? offset_ray(p, n) : offset_ray_fixed(p, n, settings_.fixed_epsilon);
+  }
+  // 1 if nothing lies between `origin` and the point `target` (on a light), else 0.
+  float visibility_to(const glm::vec3& origin, const glm::vec3& target, bool light_shadows, RenderStats& stats) const {
+    const glm::vec3 to_target = target - origin;
+    const float distance = glm::length(to_target);
+    if (!(distance > 0.0f)) return 1.0f;
+    return visibility(origin, to_target / distance, distance, light_shadows, stats);
   }
   // 1 if nothing lies between `origin` and `origin + distance * direction`, else 0.
   float visibility(const glm::vec3& origin, const glm::vec3& direction, float distance, bool light_shadows,
@@ -185,7 +195,9 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
   const glm::vec3 radiant = light.color * light.energy;
   const glm::vec3 origin = offset(shadow_p, ng);
   // Light behind the face reaches a smooth hit only through a shadow ray, which the face itself
-  // stops where the shading normals lean past a flat surface: without one it stays out.
+  // stops where the shading normals lean past a flat surface: without one it stays out. (At the
+  // boundary of an open smooth mesh the lifted ray can pass the edge: light from just behind the
+  // last faces then reaches them, as it would reach the curved surface they stand for.)
   past_face = past_face && settings_.shadows && light.shadows;
   constexpr float kFourPi = 4.0f * glm::pi<float>();
 
@@ -212,7 +224,7 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
         const glm::vec3 l = to_light / r;
         const float cos_n = light_cosine(n, ng, l, past_face), cos_light = glm::dot(pl.axis, -l);
         if (cos_n <= 0.0f || cos_light <= 0.0f) continue;
-        const glm::vec3 e = per_sample * (cos_n * cos_light / r2) * visibility(origin, l, r, light.shadows, stats);
+        const glm::vec3 e = per_sample * (cos_n * cos_light / r2) * visibility_to(origin, q, light.shadows, stats);
         sum += phong(m, diffuse, n, v, l, e, specular);
       }
     return sum;
@@ -228,7 +240,8 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
   float factor = cos_n / (kFourPi * r2);
   if (light.type == LightType::Spot) factor *= spot_attenuation(glm::dot(pl.axis, -l), light.spot_size, light.spot_blend);
   if (factor <= 0.0f) return glm::vec3(0.0f);
-  const glm::vec3 e = radiant * factor * visibility(origin, l, r, light.shadows, stats);
+  // The shadow ray runs from its own start (the offset, maybe lifted point) to the light itself.
+  const glm::vec3 e = radiant * factor * visibility_to(origin, pl.position, light.shadows, stats);
   return phong(m, diffuse, n, v, l, e, specular);
 }
 

@@ -166,6 +166,12 @@ def test_where_methods_fail_ticks_the_leak_test_then_renders_with_each_setting()
     radius = np.linalg.norm(crossings - np.array(obj.matrix_world.translation), axis=1)
     assert np.allclose(radius, radius.mean(), rtol=0.02)  # all on the sphere: vertices and edge midpoints
     assert np.all(np.linalg.norm(ends - starts, axis=1) > radius)  # drawn on past the surface
+    # Edited geometry: the rays belong to the old mesh and are no longer drawn.
+    x = obj.data.vertices[0].co.x
+    obj.data.vertices[0].co.x = x + 0.01
+    assert leak_overlay.leak_segments(scene) is None
+    obj.data.vertices[0].co.x = x
+    assert leak_overlay.leak_segments(scene) is not None
     assert timer_tick(scene) == [True, False, False, False]
     bpy.ops.render.render()
     assert "raylab_last_render" in scene

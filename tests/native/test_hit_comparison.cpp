@@ -72,11 +72,15 @@ TEST(HitComparison, AnEdgeHitOwnedByBothNeighboursIsSharedEdge) {
             Agreement::SharedEdgeVertex);
   EXPECT_EQ(classify(mesh, down_from(0.5f, 0.5f, 1), hit(0, 1.0f, 0.5f, 0.5f), hit(2, 1.0f, 0.3f, 0.3f)),
             Agreement::CoincidentFaces);
+  // The neighbour claimed inside the other triangle, away from their edge: one of them is wrong.
+  EXPECT_EQ(classify(mesh, down_from(0.2f, 0.2f, 1), hit(0, 1.0f, 0.2f, 0.2f), hit(1, 1.0f, 0.3f, 0.3f)),
+            Agreement::Unexplained);
 }
 
 TEST(HitComparison, HitAgainstMissIsExplainedOnlyOnAnEdge) {
   const TriangleMesh mesh = two_triangles();
   EXPECT_EQ(classify(mesh, down_from(0.5f, 0.5f, 1), hit(0, 1.0f, 0.5f, 0.5f), Hit{}), Agreement::EdgeRay);
+  EXPECT_EQ(classify(mesh, down_from(0.5f, 0.5f, 1), Hit{}, hit(0, 1.0f, 0.5f, 0.5f)), Agreement::EdgeRayPassed);
   EXPECT_EQ(classify(mesh, down_from(0.2f, 0.2f, 1), Hit{}, hit(0, 1.0f, 0.2f, 0.2f)), Agreement::Unexplained);
   // A nearer hit the other passed by: explained when that nearer hit is on an edge.
   EXPECT_EQ(classify(mesh, down_from(0.5f, 0.5f, 1), hit(0, 1.0f, 0.5f, 0.5f), hit(2, 3.0f, 0.3f, 0.3f)),

@@ -12,7 +12,8 @@ import raylab
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 BUILD = pathlib.Path(os.environ.get("RAYLAB_BUILD_DIR", ROOT / "build"))
-KINDS = ("same", "rounding", "shared_edge_vertex", "coincident_faces", "edge_ray", "grazing", "unexplained")
+KINDS = ("same", "rounding", "shared_edge_vertex", "coincident_faces", "edge_ray", "edge_ray_passed", "grazing",
+         "unexplained")
 
 pytestmark = pytest.mark.skipif(not (BUILD / "raylab_bench").exists(),
                                 reason="raylab_bench is built only when Embree (libembree-dev) is found")

@@ -19,7 +19,7 @@ def leak_segments(scene):
     no leak test in this scene, or the level mesh changed since."""
     leaks = scene.get(levels.LEAK_KEY)
     obj = levels.level_mesh_object(scene)
-    if leaks is None or obj is None or leaks.get("mesh") != obj.data.name or not leaks.get("escaped"):
+    if leaks is None or obj is None or not leaks.get("escaped") or leaks.get("mesh") != levels.mesh_fingerprint(obj):
         return None
     matrix = np.array(obj.matrix_world)
     centre = np.asarray(leaks["centre"], dtype=float)

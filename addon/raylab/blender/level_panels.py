@@ -6,7 +6,7 @@ import textwrap
 import bpy
 import bpy.utils.previews
 
-from . import levels
+from . import leak_overlay, levels
 
 _previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
 CHARACTER_WIDTH = 7.5  # pixels of an average sidebar character at UI scale 1, for wrapping
@@ -136,7 +136,7 @@ class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
             box.label(text=f"Leak test: {leaks['rays']:,} rays from inside", icon='MOD_FLUIDSIM')
             box.label(text=f"Möller–Trumbore: {leaks['moller_trumbore']:,} leaked")
             box.label(text=f"watertight: {leaks['watertight']:,} leaked")
-            if leaks.get("escaped"):
+            if leak_overlay.leak_segments(context.scene) is not None:
                 box.label(text="Escaped rays: red in the viewport", icon='INFO')
         if tasks and first_open is None:
             layout.label(text="All done: on to the next level!", icon='FUND')

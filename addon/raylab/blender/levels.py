@@ -19,6 +19,7 @@ import math
 import os
 import re
 import tomllib
+import zlib
 
 import bpy
 import numpy as np
@@ -296,6 +297,15 @@ def object_mesh_arrays(obj):
     if len(triangles) == 0:
         raise LevelError(f"{obj.name} has no faces")
     return vertices.reshape(-1, 3), triangles.reshape(-1, 3).astype(np.uint32)
+
+
+def mesh_fingerprint(obj):
+    """Names the geometry of a mesh object: its data block, vertex count and a CRC of the coordinates,
+    so that results computed on it (the leak test) can tell when the mesh was swapped or edited."""
+    mesh = obj.data
+    vertices = np.empty(3 * len(mesh.vertices), np.float32)
+    mesh.vertices.foreach_get("co", vertices)
+    return f"{mesh.name}:{len(mesh.vertices)}:{zlib.crc32(vertices.tobytes())}"
 
 
 # --- building a level's scene --------------------------------------------------------------------
@@ -651,8 +661,9 @@ def leak_test(scene):
     """Shoots rays from the centre of the level mesh's box through every vertex and every edge midpoint,
     the places where two triangles meet, with each triangle test. From inside a closed mesh every ray
     must hit; the ones that hit nothing leaked. Stores and returns {rays, moller_trumbore, watertight,
-    centre, escaped, mesh}: the box centre and the points the first MAX_LEAKS_DRAWN escaped rays passed
-    through (object space, flat lists), for the viewport to draw; `mesh` names the mesh they belong to."""
+    centre, escaped, mesh}: the box centre and the points where up to MAX_LEAKS_DRAWN escaped rays
+    (spread over all of them) passed through (object space, flat lists), for the viewport to draw;
+    `mesh` is the mesh_fingerprint they belong to."""
     obj = level_mesh_object(scene)
     if obj is None:
         raise LevelError("the scene is not a level (open one first)")
@@ -663,14 +674,16 @@ def leak_test(scene):
     directions = targets - centre
     keep = np.linalg.norm(directions, axis=1) > 0  # a vertex at the very centre gives no direction
     origins = np.repeat(centre[None].astype(np.float32), int(keep.sum()), axis=0)
-    result = {"rays": int(keep.sum()), "centre": [float(c) for c in centre], "mesh": obj.data.name}
+    result = {"rays": int(keep.sum()), "centre": [float(c) for c in centre], "mesh": mesh_fingerprint(obj)}
     for test in ("moller_trumbore", "watertight"):
         # Every triangle tested for every ray: the count measures the triangle test alone.
         structure = raylab.build(vertices, triangles, structure="none", triangle_test=test)
         missed = ~structure.intersect(origins, directions[keep]).hit
         result[test] = int(missed.sum())
         if test == "moller_trumbore":
-            result["escaped"] = targets[keep][missed][:MAX_LEAKS_DRAWN].ravel().tolist()
+            escaped = targets[keep][missed]
+            spread = np.linspace(0, len(escaped) - 1, min(len(escaped), MAX_LEAKS_DRAWN)).astype(int)
+            result["escaped"] = escaped[spread].ravel().tolist()
     scene[LEAK_KEY] = result
     return result
 
