@@ -31,6 +31,16 @@ class DenormalsOff {
 
 constexpr size_t kGrain = 256;
 
+// raylab's ray as Embree's, every field set.
+RTCRay embree_ray(const Ray& ray) {
+  RTCRay r;
+  r.org_x = ray.origin.x, r.org_y = ray.origin.y, r.org_z = ray.origin.z;
+  r.dir_x = ray.direction.x, r.dir_y = ray.direction.y, r.dir_z = ray.direction.z;
+  r.tnear = ray.tmin, r.tfar = ray.tmax;
+  r.time = 0.0f, r.mask = 0xffffffffu, r.id = 0, r.flags = 0;
+  return r;
+}
+
 }  // namespace
 
 EmbreeTracer::EmbreeTracer(const TriangleMesh& mesh) : mesh_(mesh) {
@@ -81,12 +91,8 @@ void EmbreeTracer::closest(std::span<const Ray> rays, std::span<Hit> hits) const
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     for (size_t i = r.begin(); i != r.end(); ++i) {
-      const Ray& ray = rays[i];
       RTCRayHit rh;
-      rh.ray.org_x = ray.origin.x, rh.ray.org_y = ray.origin.y, rh.ray.org_z = ray.origin.z;
-      rh.ray.dir_x = ray.direction.x, rh.ray.dir_y = ray.direction.y, rh.ray.dir_z = ray.direction.z;
-      rh.ray.tnear = ray.tmin, rh.ray.tfar = ray.tmax;
-      rh.ray.time = 0.0f, rh.ray.mask = 0xffffffffu, rh.ray.id = 0, rh.ray.flags = 0;
+      rh.ray = embree_ray(rays[i]);
       rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
       rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
       rtcIntersect1(scene_, &context, &rh);
@@ -109,12 +115,7 @@ void EmbreeTracer::any(std::span<const Ray> rays, std::span<uint8_t> occluded) c
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     for (size_t i = r.begin(); i != r.end(); ++i) {
-      const Ray& ray = rays[i];
-      RTCRay rr;
-      rr.org_x = ray.origin.x, rr.org_y = ray.origin.y, rr.org_z = ray.origin.z;
-      rr.dir_x = ray.direction.x, rr.dir_y = ray.direction.y, rr.dir_z = ray.direction.z;
-      rr.tnear = ray.tmin, rr.tfar = ray.tmax;
-      rr.time = 0.0f, rr.mask = 0xffffffffu, rr.id = 0, rr.flags = 0;
+      RTCRay rr = embree_ray(rays[i]);
       rtcOccluded1(scene_, &context, &rr);
       occluded[i] = rr.tfar == -kInfinity;  // Embree marks an occluded ray by tfar = -inf
     }
