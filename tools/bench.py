@@ -342,9 +342,7 @@ def reference_render(V, T, camera, lights, materials, samples):
     same image; image_errors checks that at each level). The renderer super-samples up to 4x4, so the
     picture is rendered k times larger at samples/k and each k x k block averaged: the same regular
     grid of samples."""
-    k = math.ceil(samples / 4)
-    if samples % k:
-        raise ValueError(f"reference super-sampling {samples} is not a multiple of {k}")
+    k = next(k for k in range(math.ceil(samples / 4), samples + 1) if samples % k == 0)
     big = dict(camera, resolution_x=camera["resolution_x"] * k, resolution_y=camera["resolution_y"] * k)
     image = render_once(V, T, "bvh", big, lights, materials, super_sampling=samples // k).image
     h, w = camera["resolution_y"], camera["resolution_x"]
