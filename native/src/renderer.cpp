@@ -84,15 +84,21 @@ float light_cosine(const glm::vec3& n, const glm::vec3& ng, const glm::vec3& l, 
 }
 
 // The interpolated smooth normal at a hit, in world space, on the side of `nf` (the geometric normal
-// facing the ray); `nf` itself for a flat mesh or a degenerate interpolation.
-glm::vec3 shading_normal(const PlacedInstance& inst, const Hit& hit, const glm::vec3& nf) {
-  if (!inst.shading_normals) return nf;
+// facing the ray); `nf` itself for a flat mesh or a degenerate interpolation. `side` is -1 when the
+// corner normals had to be turned to reach that side, else +1.
+struct ShadingNormal {
+  glm::vec3 n;
+  float side = 1.0f;
+};
+
+ShadingNormal shading_normal(const PlacedInstance& inst, const Hit& hit, const glm::vec3& nf) {
+  if (!inst.shading_normals) return {nf};
   const glm::vec3* corner = inst.shading_normals->data() + 3 * size_t(hit.triangle);
   glm::vec3 n = inst.normal_matrix * ((1.0f - hit.u - hit.v) * corner[0] + hit.u * corner[1] + hit.v * corner[2]);
   const float length = glm::length(n);
-  if (!(length > 0.0f) || !std::isfinite(length)) return nf;
+  if (!(length > 0.0f) || !std::isfinite(length)) return {nf};
   n /= length;
-  return glm::dot(n, nf) < 0.0f ? -n : n;
+  return glm::dot(n, nf) < 0.0f ? ShadingNormal{-n, -1.0f} : ShadingNormal{n, 1.0f};
 }
 
 // Hanika 2021, "Hacking the shadow terminator": the hit point lifted onto the curved surface that
@@ -257,7 +263,8 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   const bool entering = glm::dot(n, d) < 0.0f;  // against the winding's normal: from outside
   const glm::vec3 nf = entering ? n : -n;        // faces the incoming ray
   // Smooth shading bends the Phong terms only; offsets, reflection and refraction stay geometric.
-  const glm::vec3 ns = shading_normal(inst, hit, nf);
+  const ShadingNormal smooth = shading_normal(inst, hit, nf);
+  const glm::vec3 ns = smooth.n;
   // The hit point from the barycentrics, not from origin + t * direction: its rounding error is then
   // relative to the point itself, as the integer-ulp offset assumes. From the ray, the error would be
   // relative to the ray's length and origin, and a far camera would sink points below a floor
@@ -266,16 +273,14 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   const glm::vec3 p_object = weight[0] * a + weight[1] * b + weight[2] * c;
   const glm::vec3 p = glm::vec3(inst.transform * glm::vec4(p_object, 1.0f));
   const glm::vec3 v = -d;
-  // Smooth hits get the shadow-terminator point; the side of the face the ray came from picks the
-  // normals' orientation (ns already faces nf).
+  // Smooth hits get the shadow-terminator point, with the corner normals turned as the shading
+  // normal was, to the side of the face the ray came from.
   const bool terminator = settings_.shadow_terminator && inst.shading_normals != nullptr && ns != nf;
   glm::vec3 shadow_p = p;
   if (terminator) {
     const glm::vec3 corner[3] = {a, b, c};
     const glm::vec3* normals = inst.shading_normals->data() + 3 * size_t(hit.triangle);
-    const glm::vec3 interpolated = weight[0] * normals[0] + weight[1] * normals[1] + weight[2] * normals[2];
-    const float side = glm::dot(inst.normal_matrix * interpolated, nf) < 0.0f ? -1.0f : 1.0f;
-    shadow_p = glm::vec3(inst.transform * glm::vec4(terminator_point(corner, normals, weight, p_object, side), 1.0f));
+    shadow_p = glm::vec3(inst.transform * glm::vec4(terminator_point(corner, normals, weight, p_object, smooth.side), 1.0f));
   }
 
   const float kr = m.reflectivity + m.metallic * (1.0f - m.reflectivity);
