@@ -19,6 +19,21 @@ GOAT_SCALE = 0.25
 SMOOTH_ANGLE = math.radians(60.0)
 
 
+def mesh_vertices(mesh):
+    """The vertex coordinates of a bpy mesh as a (V,3) float32 array (foreach_get, no Python loop)."""
+    vertices = np.empty(3 * len(mesh.vertices), np.float32)
+    mesh.vertices.foreach_get("co", vertices)
+    return vertices.reshape(-1, 3)
+
+
+def mesh_triangles(mesh):
+    """Blender's triangulation of a bpy mesh (its loop triangles) as a (T,3) uint32 array."""
+    mesh.calc_loop_triangles()
+    triangles = np.empty(3 * len(mesh.loop_triangles), np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    return triangles.reshape(-1, 3).astype(np.uint32)
+
+
 def mesh_from_arrays(name, vertices, triangles, smooth=False):
     """A new bpy mesh of (V,3) vertices and (T,3) triangles, filled with foreach_set (no Python loop).
 

@@ -27,7 +27,7 @@ from mathutils import Matrix, Vector
 
 import raylab
 
-from .default_scene import mesh_from_arrays, principled_material
+from .default_scene import mesh_from_arrays, mesh_triangles, mesh_vertices, principled_material
 
 PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MESH_DIR = os.path.join(PACKAGE_DIR, "meshes")
@@ -288,24 +288,17 @@ def shipped_mesh_arrays(filename):
 
 def object_mesh_arrays(obj):
     """The triangles of a user's mesh object in its own space (modifiers and transform left out)."""
-    mesh = obj.data
-    mesh.calc_loop_triangles()
-    vertices = np.empty(3 * len(mesh.vertices), np.float32)
-    mesh.vertices.foreach_get("co", vertices)
-    triangles = np.empty(3 * len(mesh.loop_triangles), np.int32)
-    mesh.loop_triangles.foreach_get("vertices", triangles)
+    triangles = mesh_triangles(obj.data)
     if len(triangles) == 0:
         raise LevelError(f"{obj.name} has no faces")
-    return vertices.reshape(-1, 3), triangles.reshape(-1, 3).astype(np.uint32)
+    return mesh_vertices(obj.data), triangles
 
 
 def mesh_fingerprint(obj):
     """Names the geometry of a mesh object: its data block, vertex count and a CRC of the coordinates,
     so that results computed on it (the leak test) can tell when the mesh was swapped or edited."""
-    mesh = obj.data
-    vertices = np.empty(3 * len(mesh.vertices), np.float32)
-    mesh.vertices.foreach_get("co", vertices)
-    return f"{mesh.name}:{len(mesh.vertices)}:{zlib.crc32(vertices.tobytes())}"
+    vertices = mesh_vertices(obj.data)
+    return f"{obj.data.name}:{len(vertices)}:{zlib.crc32(vertices.tobytes())}"
 
 
 # --- building a level's scene --------------------------------------------------------------------

@@ -12,6 +12,8 @@ import numpy as np
 
 import raylab
 
+from .default_scene import mesh_triangles, mesh_vertices
+
 # Blinn-Phong exponent equivalent to a GGX roughness r (alpha = r^2, n = 2 / alpha^2 - 2; Walter et al.
 # 2007, Karis 2013), clamped so a roughness of 0 stays finite and a rough surface keeps a faint highlight.
 SHININESS_RANGE = (1.0, 1000.0)
@@ -97,18 +99,15 @@ def export_camera(depsgraph):
 
 def _mesh_arrays(mesh, object_name):
     """(V, T) of an evaluated mesh, triangulated by Blender's loop triangles; None when it has no faces."""
-    mesh.calc_loop_triangles()
-    if len(mesh.loop_triangles) == 0:
+    triangles = mesh_triangles(mesh)
+    if len(triangles) == 0:
         return None
-    vertices = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get("co", vertices)
+    vertices = mesh_vertices(mesh)
     if not np.isfinite(vertices).all():
-        bad = int(np.flatnonzero(~np.isfinite(vertices))[0] // 3)
+        bad = int(np.flatnonzero(~np.isfinite(vertices).all(axis=1))[0])
         raise ExportError(f"Object '{object_name}': vertex {bad} of mesh '{mesh.name}' has a NaN or "
                           f"infinite coordinate; fix or delete it")
-    triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-    mesh.loop_triangles.foreach_get("vertices", triangles)
-    return vertices.reshape(-1, 3), triangles.astype(np.uint32).reshape(-1, 3)
+    return vertices, triangles
 
 
 def corner_normals(mesh):

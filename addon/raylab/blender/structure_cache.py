@@ -14,6 +14,8 @@ import numpy as np
 
 import raylab
 
+from .default_scene import mesh_triangles, mesh_vertices
+
 stats = {"structure_builds": 0, "mesh_reads": 0}
 
 _meshes = {}   # object name -> _Mesh
@@ -80,15 +82,11 @@ def read_mesh(obj, depsgraph):
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
     try:
-        mesh.calc_loop_triangles()
-        vertices = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", vertices)
-        triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("vertices", triangles)
+        vertices, triangles = mesh_vertices(mesh), mesh_triangles(mesh)
     finally:
         evaluated.to_mesh_clear()
     stats["mesh_reads"] += 1
-    return vertices.reshape(-1, 3), triangles.astype(np.uint32).reshape(-1, 3)
+    return vertices, triangles
 
 
 def _mesh_of(obj, depsgraph):
