@@ -15,14 +15,29 @@ bl_info = {
     "category": "Render",
 }
 
-from .api import *  # noqa: E402,F401,F403  the Python API (numpy in, numpy out)
+import sys  # noqa: E402
+
+from . import native  # noqa: E402
+
+if native.ERROR is None:
+    from .api import *  # noqa: E402,F401,F403  the Python API (numpy in, numpy out)
+elif "bpy" not in sys.modules:
+    raise ImportError(native.ERROR)
 
 
 def register():
+    if native.ERROR is not None:  # only the message in the add-on's preferences, no traceback
+        from . import native_missing
+        native_missing.register()
+        return
     from . import blender
     blender.register()
 
 
 def unregister():
+    if native.ERROR is not None:
+        from . import native_missing
+        native_missing.unregister()
+        return
     from . import blender
     blender.unregister()

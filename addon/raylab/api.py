@@ -12,6 +12,7 @@ Bad input raises ValueError naming the problem; a build over the memory budget r
 """
 import math
 import os
+import sys
 
 from . import _raylab
 
@@ -196,4 +197,18 @@ class Scene:
 
 # The renderer (native/python/render_bindings.cpp) takes a Scene above or its native scene.
 render = _raylab.render
-write_image = _raylab.write_image
+
+
+def write_image(path, image):
+    """Writes an (H, W, 4) or (H, W, 3) linear image, row 0 the top row: .png 8-bit with the sRGB curve,
+    .exr float. Through OpenImageIO (the _raylab_images module of a build made by ./raylab setup); in
+    the Blender extension, which leaves OpenImageIO out, through Blender's own image writer."""
+    try:
+        from . import _raylab_images
+    except ImportError:
+        if "bpy" not in sys.modules:
+            raise ImportError("raylab.write_image needs the _raylab_images module (OpenImageIO), which this "
+                              "build of raylab does not carry: build raylab with ./raylab setup") from None
+        from .blender import image_files
+        return image_files.write_image(path, image)
+    return _raylab_images.write_image(path, image)

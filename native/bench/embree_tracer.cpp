@@ -41,6 +41,24 @@ RTCRay embree_ray(const Ray& ray) {
   return r;
 }
 
+// One ray query, in Embree 3's form (an intersect context) or Embree 4's (no context needed; the
+// default arguments are the same query).
+#if RAYLAB_EMBREE_MAJOR >= 4
+void intersect1(RTCScene scene, RTCRayHit& rh) { rtcIntersect1(scene, &rh); }
+void occluded1(RTCScene scene, RTCRay& ray) { rtcOccluded1(scene, &ray); }
+#else
+void intersect1(RTCScene scene, RTCRayHit& rh) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  rtcIntersect1(scene, &context, &rh);
+}
+void occluded1(RTCScene scene, RTCRay& ray) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  rtcOccluded1(scene, &context, &ray);
+}
+#endif
+
 }  // namespace
 
 EmbreeTracer::EmbreeTracer(const TriangleMesh& mesh) : mesh_(mesh) {
@@ -88,14 +106,12 @@ double EmbreeTracer::build(RTCBuildQuality quality) {
 void EmbreeTracer::closest(std::span<const Ray> rays, std::span<Hit> hits) const {
   tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), kGrain), [&](const tbb::blocked_range<size_t>& r) {
     DenormalsOff mode;
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
     for (size_t i = r.begin(); i != r.end(); ++i) {
       RTCRayHit rh;
       rh.ray = embree_ray(rays[i]);
       rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
       rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-      rtcIntersect1(scene_, &context, &rh);
+      intersect1(scene_, rh);
       Hit h;
       if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         h.t = rh.ray.tfar;
@@ -112,11 +128,9 @@ void EmbreeTracer::closest(std::span<const Ray> rays, std::span<Hit> hits) const
 void EmbreeTracer::any(std::span<const Ray> rays, std::span<uint8_t> occluded) const {
   tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), kGrain), [&](const tbb::blocked_range<size_t>& r) {
     DenormalsOff mode;
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
     for (size_t i = r.begin(); i != r.end(); ++i) {
       RTCRay rr = embree_ray(rays[i]);
-      rtcOccluded1(scene_, &context, &rr);
+      occluded1(scene_, rr);
       occluded[i] = rr.tfar == -kInfinity;  // Embree marks an occluded ray by tfar = -inf
     }
   });

@@ -1,10 +1,15 @@
-// Embree 3 on the same mesh and the same rays as raylab: the reference of DESIGN.md "Performance"
+// Embree (3 on Debian 12, 4 on Debian 13) on the same mesh and the same rays as raylab: the reference of DESIGN.md "Performance"
 // and the hit oracle of the benchmark. raylab's own structures never call it.
 #pragma once
 
 #include "raylab/geometry.h"
 
+// CMake defines RAYLAB_EMBREE_MAJOR from the Embree it found; the two differ only in the query calls.
+#if RAYLAB_EMBREE_MAJOR >= 4
+#include <embree4/rtcore.h>
+#else
 #include <embree3/rtcore.h>
+#endif
 
 #include <atomic>
 #include <cstdint>

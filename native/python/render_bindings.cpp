@@ -1,11 +1,10 @@
-// The renderer: raylab.render(scene, camera, lights, materials, settings, progress) and
-// raylab.write_image(path, image). Every dict is read here, with the GIL held, so that a missing or
+// The renderer: raylab.render(scene, camera, lights, materials, settings, progress).
+// Every dict is read here, with the GIL held, so that a missing or
 // unknown key or a bad value is a ValueError naming it; the render itself runs on a worker thread
 // while the calling thread, with the GIL released, wakes a few times a second to report progress.
 #include "bindings.h"
 #include "core_arrays.h"
 
-#include "raylab/image_io.h"
 #include "raylab/renderer.h"
 
 #include <pybind11/numpy.h>
@@ -353,25 +352,6 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   return out;
 }
 
-void write_image_from_python(py::handle path_object, py::handle image_object) {
-  const std::string path = py::module_::import("os").attr("fspath")(path_object).cast<std::string>();
-  py::array_t<float, py::array::c_style | py::array::forcecast> image;
-  try {
-    image = py::array_t<float, py::array::c_style | py::array::forcecast>(py::reinterpret_borrow<py::object>(image_object));
-  } catch (const py::error_already_set&) {
-    value_error("image must be an array of numbers");
-  }
-  if (image.ndim() != 3 || (image.shape(2) != 3 && image.shape(2) != 4) || image.shape(0) == 0 || image.shape(1) == 0)
-    value_error("image must be (H, W, 4) or (H, W, 3) with H, W > 0");
-  const int h = int(image.shape(0)), w = int(image.shape(1)), channels = int(image.shape(2));
-  std::vector<float> rgba(size_t(w) * h * 4, 1.0f);  // a missing alpha is opaque
-  const float* src = image.data();
-  for (size_t p = 0; p < size_t(w) * h; ++p)
-    for (int c = 0; c < channels; ++c) rgba[p * 4 + c] = src[p * channels + c];
-  py::gil_scoped_release release;
-  write_image(path, rgba, w, h);
-}
-
 }  // namespace
 
 void bind_render(py::module_& m) {
@@ -391,8 +371,6 @@ void bind_render(py::module_& m) {
         "Renders a committed raylab.Scene; progress(fraction) is called several times a second and "
         "cancels the render by returning True. settings (all optional): super_sampling (1-4), max_depth, "
         "shadows, background, ambient, robust_offset, fixed_epsilon, shadow_terminator, threads, tile_size.");
-  m.def("write_image", &write_image_from_python, py::arg("path"), py::arg("image"),
-        "Writes an (H, W, 4) linear image: .png 8-bit sRGB-encoded, .exr float.");
 }
 
 }  // namespace raylab::python

@@ -1,13 +1,13 @@
 """Render the active scene once per acceleration structure and compare what each costs and saves."""
 import bpy
 
-import raylab
+from .. import api
 
 from .render_engine import human_count, id_property_stats, render_exported, total_rays
 from .scene_export import export_scene
 
 
-def compare_structures(exported, props, super_sampling=None, structures=raylab.STRUCTURES):
+def compare_structures(exported, props, super_sampling=None, structures=api.STRUCTURES):
     """Render one export with every structure: [(structure, raylab render result)], in order."""
     return [(structure, render_exported(exported, props, structure=structure, super_sampling=super_sampling))
             for structure in structures]
@@ -25,7 +25,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
         try:
             exported = export_scene(context.evaluated_depsgraph_get())
             results = compare_structures(exported, props)
-        except (ValueError, raylab.BuildError) as error:
+        except (ValueError, api.BuildError) as error:
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
         scene["raylab_comparison"] = {structure: id_property_stats(result.stats, props.super_sampling)

@@ -9,9 +9,10 @@ import os
 import bpy
 import numpy as np
 
-import raylab
+from .. import api
+from . import compat
 
-GOAT_PATH = os.path.join(os.path.dirname(raylab.__file__), "meshes", "goathead.obj")
+GOAT_PATH = os.path.join(os.path.dirname(api.__file__), "meshes", "goathead.obj")
 GOAT_SCALE = 0.25
 
 
@@ -47,12 +48,12 @@ def mesh_from_arrays(name, vertices, triangles, smooth=False):
     mesh.polygons.add(len(triangles))
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
     mesh.polygons.foreach_set("loop_total", np.full(len(triangles), 3, np.int32))
+    mesh.update(calc_edges=True)
+    mesh.validate()
     if smooth:
         mesh.polygons.foreach_set("use_smooth", np.ones(len(triangles), bool))
-        mesh.use_auto_smooth = True
-        mesh.auto_smooth_angle = SMOOTH_ANGLE
-    mesh.update()
-    mesh.validate()
+        compat.smooth_by_angle(mesh, SMOOTH_ANGLE)
+        mesh.update()
     return mesh
 
 
@@ -79,7 +80,7 @@ def build_default_scene(scene, resolution=(320, 240)):
     """Empty `scene` and build the demo in it; returns its objects by role."""
     for obj in list(scene.objects):
         bpy.data.objects.remove(obj)
-    vertices, triangles = raylab.load_mesh(GOAT_PATH)
+    vertices, triangles = api.load_mesh(GOAT_PATH)
     goat = _add_object(scene, "Goat Head", mesh_from_arrays("goathead", vertices, triangles, smooth=True),
                        # The OBJ is Y-up: stand it up in Blender's Z-up world, turned three-quarters to the camera.
                        location=(0.0, 0.0, -float(vertices[:, 1].min()) * GOAT_SCALE),

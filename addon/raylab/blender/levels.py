@@ -25,7 +25,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-import raylab
+from .. import api
 
 from .default_scene import mesh_from_arrays, mesh_triangles, mesh_vertices, principled_material
 
@@ -279,7 +279,7 @@ def shipped_mesh_arrays(filename):
     path = os.path.join(MESH_DIR, filename)
     if not os.path.isfile(path):
         raise LevelError(f"no shipped mesh {filename!r} (shipped: {', '.join(shipped_meshes())})")
-    vertices, triangles = raylab.load_mesh(path)
+    vertices, triangles = api.load_mesh(path)
     if filename in Z_UP_MESHES:
         return vertices, triangles
     # The other OBJ files are Y-up; Blender is Z-up.
@@ -670,7 +670,7 @@ def leak_test(scene):
     result = {"rays": int(keep.sum()), "centre": [float(c) for c in centre], "mesh": mesh_fingerprint(obj)}
     for test in ("moller_trumbore", "watertight"):
         # Every triangle tested for every ray: the count measures the triangle test alone.
-        structure = raylab.build(vertices, triangles, structure="none", triangle_test=test)
+        structure = api.build(vertices, triangles, structure="none", triangle_test=test)
         missed = ~structure.intersect(origins, directions[keep]).hit
         result[test] = int(missed.sum())
         if test == "moller_trumbore":

@@ -2,7 +2,7 @@
 import bpy
 import numpy as np
 
-import raylab
+from .. import api
 
 from . import viewport_panels
 from .scene_export import build_scene, export_scene, render_settings
@@ -20,7 +20,7 @@ def render_exported(exported, props, structure=None, super_sampling=None, progre
     Raises ExportError, ValueError (bad geometry or settings) or raylab.BuildError (memory budget)."""
     scene, _ = build_scene(exported, structure=structure or props.structure,
                            max_depth=props.max_depth, leaf_size=props.leaf_size)
-    return raylab.render(scene, exported.camera, exported.lights, exported.materials,
+    return api.render(scene, exported.camera, exported.lights, exported.materials,
                          render_settings(exported, props, super_sampling), progress=progress)
 
 
@@ -67,7 +67,7 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
             exported = export_scene(depsgraph)
             self.update_stats("", f"raylab {props.structure}: building and rendering")
             result = render_exported(exported, props, progress=self._progress)
-        except (ValueError, raylab.BuildError) as error:
+        except (ValueError, api.BuildError) as error:
             self.report({'ERROR'}, f"raylab: {error}")
             self.update_stats("", f"raylab: {error}")
             return

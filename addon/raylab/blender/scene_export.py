@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-import raylab
+from .. import api
+from . import compat
 
 from .default_scene import mesh_triangles, mesh_vertices
 
@@ -113,9 +114,9 @@ def _mesh_arrays(mesh, object_name):
 def corner_normals(mesh):
     """(T,3,3) normals of the loop triangles' corners as Blender shades them: Shade Smooth, Flat (the
     face normal at each corner) and auto smooth's sharp edges. Needs calc_loop_triangles() first."""
-    mesh.calc_normals_split()
-    normals = np.empty(len(mesh.loop_triangles) * 9, np.float32)
-    mesh.loop_triangles.foreach_get("split_normals", normals)
+    corners = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("loops", corners)
+    normals = compat.corner_normals(mesh)[corners]
     # A degenerate face can give a non-finite normal: zero makes the renderer shade it flat.
     return np.nan_to_num(normals, nan=0.0, posinf=0.0, neginf=0.0).reshape(-1, 3, 3)
 
@@ -146,8 +147,9 @@ def export_material(material):
     inputs = principled.inputs
     return _phong_material(inputs["Base Color"].default_value[:3], metallic=inputs["Metallic"].default_value,
                            roughness=inputs["Roughness"].default_value,
-                           specular=inputs["Specular"].default_value,
-                           transmission=inputs["Transmission"].default_value, ior=inputs["IOR"].default_value)
+                           specular=compat.principled_value(principled, "specular"),
+                           transmission=compat.principled_value(principled, "transmission"),
+                           ior=inputs["IOR"].default_value)
 
 
 def _principled_bsdf(material):
@@ -204,7 +206,7 @@ def world_colour(world):
 
 def build_scene(exported, structure="bvh", max_depth=6, leaf_size=8):
     """A committed raylab.Scene of the export, and {raylab instance id: object name}."""
-    scene = raylab.Scene(structure=structure, max_depth=max_depth, leaf_size=leaf_size)
+    scene = api.Scene(structure=structure, max_depth=max_depth, leaf_size=leaf_size)
     mesh_ids = [scene.add_mesh(vertices, triangles, normals=normals)
                 for (vertices, triangles), normals in zip(exported.meshes, exported.normals)]
     objects = {}

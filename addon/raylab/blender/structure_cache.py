@@ -12,7 +12,7 @@ import hashlib
 import bpy
 import numpy as np
 
-import raylab
+from .. import api
 
 from .default_scene import mesh_triangles, mesh_vertices
 
@@ -122,7 +122,7 @@ def structure_for(obj, settings, depsgraph=None):
     else:
         vertices = transform_points(matrix, mesh.vertices).astype(np.float32) if world else mesh.vertices
         try:
-            structure = raylab.build(vertices, mesh.triangles, structure=skey[0],
+            structure = api.build(vertices, mesh.triangles, structure=skey[0],
                                      max_depth=settings.max_depth, leaf_size=settings.leaf_size)
             stats["structure_builds"] += 1
         except (ValueError, RuntimeError) as e:  # e.g. BuildError over the memory budget

@@ -1,0 +1,42 @@
+"""raylab.write_image through Blender's image writer, for the extension, which ships no OpenImageIO.
+
+Same contract as the OpenImageIO writer: (H, W, 3|4) linear values, row 0 the top row; .png 8-bit with
+the sRGB curve, .exr float; a bad array is a ValueError, a path that cannot be written a RuntimeError."""
+import os
+
+import bpy
+import numpy as np
+
+FORMATS = {".png": 'PNG', ".exr": 'OPEN_EXR'}
+
+
+def write_image(path, image):
+    path = os.fspath(path)
+    file_format = FORMATS.get(os.path.splitext(path)[1].lower())
+    if file_format is None:
+        raise RuntimeError(f"cannot write '{path}': the file name must end in .png or .exr")
+    try:
+        pixels = np.asarray(image, np.float32)
+    except (TypeError, ValueError):
+        raise ValueError("image must be an array of numbers") from None
+    if pixels.ndim != 3 or pixels.shape[2] not in (3, 4) or pixels.shape[0] == 0 or pixels.shape[1] == 0:
+        raise ValueError("image must be (H, W, 4) or (H, W, 3) with H, W > 0")
+    height, width = pixels.shape[:2]
+    rgba = np.ones((height, width, 4), np.float32)  # a missing alpha is opaque
+    rgba[:, :, :pixels.shape[2]] = pixels
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        raise RuntimeError(f"cannot write '{path}': its folder does not exist")
+    picture = bpy.data.images.new("raylab write_image", width, height, alpha=True, float_buffer=True)
+    try:
+        picture.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())  # Blender's rows go up
+        picture.filepath_raw = path
+        picture.file_format = file_format
+        if file_format == 'PNG':
+            picture.colorspace_settings.name = 'Linear' if 'Linear' in _colorspaces(picture) else 'Linear Rec.709'
+        picture.save()
+    finally:
+        bpy.data.images.remove(picture)
+
+
+def _colorspaces(picture):
+    return {item.identifier for item in picture.colorspace_settings.bl_rna.properties["name"].enum_items}

@@ -1,0 +1,40 @@
+"""The native core, _raylab: loads it, or says in one sentence why it cannot.
+
+A build of raylab carries the native module for one or more Pythons (`_raylab.cpython-311-….so`, …): the
+module is compiled against one Python's ABI. In a Blender whose Python is another one, the add-on still
+registers and its preferences say which Python the build needs, instead of a traceback.
+"""
+import importlib
+import os
+import re
+import sys
+
+PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+
+
+def built_for():
+    """The Python versions ("3.11", ...) whose native module this copy of raylab carries."""
+    versions = set()
+    for name in os.listdir(PACKAGE_DIR):
+        match = re.fullmatch(r"_raylab\.cpython-(\d)(\d+)\S*\.so", name)
+        if match:
+            versions.add(f"{match[1]}.{match[2]}")
+    return sorted(versions, key=lambda v: tuple(map(int, v.split("."))))
+
+
+def _load():
+    """(module, None) or (None, the reason it cannot be loaded, for a person)."""
+    running = f"{sys.version_info.major}.{sys.version_info.minor}"
+    try:
+        return importlib.import_module("._raylab", __package__), None
+    except ImportError as error:
+        versions = built_for()
+        if running not in versions:
+            built = " and ".join(f"Python {v}" for v in versions) or "no Python (the native module is missing)"
+            return None, (f"raylab's native core was built for {built}, but this Blender runs Python "
+                          f"{running}. Install the raylab build made for Python {running} "
+                          f"(./raylab package on a system whose Python is {running}).")
+        return None, f"raylab's native core for Python {running} could not be loaded: {error}"
+
+
+core, ERROR = _load()
