@@ -1,9 +1,13 @@
 """Blender-side helpers of the GUI scripts (they run inside a real Blender window under xvfb-run):
 find the 3D viewport, take a window screenshot, run steps one timer tick apart."""
+import os
+import shutil
+import subprocess
 import traceback
 from collections import namedtuple
 
 import bpy
+import numpy as np
 
 View3D = namedtuple("View3D", "window area region sidebar")
 
@@ -17,11 +21,41 @@ def view3d():
     return View3D(window, area, region, sidebar)
 
 
-def screenshot(path):
-    """The whole window, as a PNG at `path`."""
-    v = view3d()
-    with bpy.context.temp_override(window=v.window, area=v.area, region=v.region):
-        bpy.ops.screen.screenshot(filepath=path)
+def screenshot(path, window=None):
+    """The whole window (the first one unless given), as a PNG at `path`.
+
+    Taken from the X server (xwd): Blender 4.x's own screenshot reads its front buffer, which is black
+    under Xvfb with Mesa's llvmpipe; Blender 3.4 and the X server agree."""
+    window = window or bpy.context.window_manager.windows[0]
+    area = max(window.screen.areas, key=lambda a: a.width * a.height)
+    with bpy.context.temp_override(window=window, area=area):
+        bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=2)
+    if shutil.which("xwd") is None or not os.environ.get("DISPLAY"):
+        with bpy.context.temp_override(window=window, area=area):
+            bpy.ops.screen.screenshot(filepath=path)
+        return
+    screen = read_xwd(subprocess.run(["xwd", "-root", "-silent"], capture_output=True, check=True).stdout)
+    # Blender's window position counts y from the bottom of the screen, X from the top.
+    top = screen.shape[0] - (window.y + window.height)
+    pixels = screen[max(top, 0):top + window.height, window.x:window.x + window.width]
+    from matplotlib import image as mpimg
+    mpimg.imsave(path, pixels)
+
+
+def read_xwd(data):
+    """(H, W, 3) uint8 of an X window dump of a TrueColor screen of 24 or 32 bits per pixel (what Xvfb -screen WxHx24 gives)."""
+    header = np.frombuffer(data[:100], ">u4")
+    header_size, width, height, byte_order, bits_per_pixel, bytes_per_line, ncolors = (
+        int(header[0]), int(header[4]), int(header[5]), int(header[7]), int(header[11]), int(header[12]),
+        int(header[19]))
+    if bits_per_pixel not in (24, 32):
+        raise RuntimeError(f"xwd: {bits_per_pixel} bits per pixel (run Xvfb with -screen WxHx24)")
+    size = bits_per_pixel // 8
+    start = header_size + 12 * ncolors
+    rows = np.frombuffer(data[start:start + bytes_per_line * height], np.uint8).reshape(height, bytes_per_line)
+    pixels = rows[:, :size * width].reshape(height, width, size)
+    # LSBFirst (0): bytes B, G, R (, X); MSBFirst: (X,) R, G, B.
+    return np.ascontiguousarray(pixels[:, :, 2::-1] if byte_order == 0 else pixels[:, :, size - 3:])
 
 
 def step_timer(steps, finish, report, interval=1.5):

@@ -13,6 +13,8 @@ import traceback
 import bpy
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import blender_window  # noqa: E402
 import raylab  # noqa: E402
 from raylab.blender import render_engine  # noqa: E402
 
@@ -90,10 +92,7 @@ def wait_for_render():
         report["image_region"] = dict(x=region.x, y=region.y,
                                       width=region.width, height=region.height)
         report["last_render"] = bpy.context.scene["raylab_last_render"].to_dict()
-        with bpy.context.temp_override(window=window, area=area, region=region):
-            # Under Xvfb the window's front buffer may be stale: draw and swap before reading it.
-            bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=2)
-            bpy.ops.screen.screenshot(filepath=SCREENSHOT)
+        blender_window.screenshot(SCREENSHOT, window)
         finish()
     except Exception:
         report["errors"].append(traceback.format_exc())

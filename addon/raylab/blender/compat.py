@@ -44,3 +44,14 @@ def corner_normals(mesh):
         mesh.calc_normals_split()
         mesh.loops.foreach_get("normal", normals)
     return normals.reshape(-1, 3)
+
+
+def set_pass_pixels(render_pass, rgba):
+    """Fills a render result pass from (N,4) float32 pixels, bottom row first. 4.x's foreach_set wants
+    the N*4 numbers flat, 3.x's one row of 4 per pixel; both report the other shape as a TypeError
+    before writing anything (and len(rect) is N on both, so it cannot tell them apart)."""
+    rgba = np.ascontiguousarray(rgba, np.float32).reshape(-1, 4)
+    try:
+        render_pass.rect.foreach_set(rgba.ravel())
+    except TypeError:
+        render_pass.rect.foreach_set(rgba)

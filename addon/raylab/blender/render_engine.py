@@ -3,6 +3,7 @@ import bpy
 import numpy as np
 
 from .. import api
+from . import compat
 
 from . import viewport_panels
 from .scene_export import build_scene, export_scene, render_settings
@@ -90,7 +91,7 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         height, width = image.shape[:2]
         result = self.begin_result(0, 0, width, height)
         # raylab's row 0 is the top of the picture; Blender's buffers start at the bottom row.
-        result.layers[0].passes["Combined"].rect.foreach_set(np.ascontiguousarray(image[::-1]).reshape(-1, 4))
+        compat.set_pass_pixels(result.layers[0].passes["Combined"], image[::-1])
         self.end_result(result)
 
 

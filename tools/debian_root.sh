@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# A cached Debian root (debootstrap, minbase) to run raylab on another Debian release than the host's.
+#
+#   tools/debian_root.sh ensure NAME SUITE [PACKAGE...]   make /var/cache/raylab/NAME once (later: seconds)
+#   tools/debian_root.sh run NAME COMMAND...              COMMAND inside it, the checkout mounted at /raylab
+#
+# The roots live under $RAYLAB_ROOTS (default /var/cache/raylab). Making one needs root and Debian's
+# package mirror; when either is missing this says so and fails: it never passes silently.
+set -euo pipefail
+CHECKOUT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+ROOTS="${RAYLAB_ROOTS:-/var/cache/raylab}"
+
+die() { echo "debian_root: $*" >&2; exit 1; }
+
+# The host's own mirror (deb.debian.org here): the one address known to be reachable.
+mirror() {
+  local uri=""
+  if [ -f /etc/apt/sources.list.d/debian.sources ]; then
+    uri=$(awk '/^URIs:/ {print $2; exit}' /etc/apt/sources.list.d/debian.sources)
+  elif [ -f /etc/apt/sources.list ]; then
+    uri=$(awk '$1 == "deb" {print $2; exit}' /etc/apt/sources.list)
+  fi
+  echo "${uri:-http://deb.debian.org/debian}"
+}
+
+in_root() {  # NAME COMMAND... with /proc, /dev, /sys and the checkout mounted, all unmounted after
+  local dir="$ROOTS/$1"; shift
+  mkdir -p "$dir/raylab"
+  cp -L /etc/resolv.conf "$dir/etc/resolv.conf" 2>/dev/null || true
+  local mounted=()
+  # shellcheck disable=SC2317  # called by the trap
+  cleanup() { local m; for m in "${mounted[@]}"; do umount -R "$m" 2>/dev/null || umount -lR "$m" 2>/dev/null || true; done; }
+  trap cleanup EXIT
+  for fs in proc sys dev; do
+    mount --rbind "/$fs" "$dir/$fs" && mount --make-rslave "$dir/$fs" && mounted=("$dir/$fs" "${mounted[@]}")
+  done
+  mount --bind "$CHECKOUT" "$dir/raylab" && mounted=("$dir/raylab" "${mounted[@]}")
+  local rc=0
+  chroot "$dir" /usr/bin/env -i HOME=/root PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
+    TERM="${TERM:-dumb}" LANG=C.UTF-8 RAYLAB_IN_ROOT="$(basename "$dir")" "$@" || rc=$?
+  cleanup; trap - EXIT
+  return $rc
+}
+
+ensure() {  # NAME SUITE [PACKAGE...]
+  local name="$1" suite="$2"; shift 2
+  local dir="$ROOTS/$name"
+  [ -f "$dir/.raylab-root" ] && return 0
+  [ "$(id -u)" -eq 0 ] || die "making the $suite root needs root (debootstrap, chroot, mount)"
+  command -v debootstrap >/dev/null || {
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq debootstrap >/dev/null; } \
+    || die "debootstrap is missing and could not be installed from Debian's packages"
+  mkdir -p "$ROOTS"
+  local tmp="$dir.partial"
+  rm -rf "$tmp"
+  # One debootstrap per suite: its result is kept as a tarball that every later root of the suite unpacks.
+  local base="$ROOTS/$suite-minbase.tar"
+  if [ ! -f "$base" ]; then
+    echo "debian_root: debootstrap $suite (minbase, from $(mirror)); about 10 minutes the first time"
+    debootstrap --variant=minbase "$suite" "$tmp" "$(mirror)" > "$ROOTS/$suite.debootstrap.log" 2>&1 \
+      || die "debootstrap $suite failed (is $(mirror) reachable?); see $ROOTS/$suite.debootstrap.log"
+    tar -C "$tmp" -cf "$base.partial" . && mv "$base.partial" "$base"
+  else
+    mkdir -p "$tmp" && tar -C "$tmp" -xf "$base"
+  fi
+  mv "$tmp" "$dir"
+  if [ $# -gt 0 ]; then
+    in_root "$name" sh -c "apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $* >/dev/null" \
+      || { rm -rf "$dir"; die "installing $* in the $suite root failed"; }
+  fi
+  echo "$suite $*" > "$dir/.raylab-root"
+}
+
+cmd="${1:-}"; shift || true
+case "$cmd" in
+  ensure) ensure "$@" ;;
+  run) name="$1"; shift; [ -f "$ROOTS/$name/.raylab-root" ] || die "no root $name: run ensure first"; in_root "$name" "$@" ;;
+  *) echo "usage: tools/debian_root.sh ensure NAME SUITE [PACKAGE...] | run NAME COMMAND..."; exit 2 ;;
+esac
