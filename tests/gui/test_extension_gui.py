@@ -57,6 +57,13 @@ def session(packaged, tmp_path_factory):
     user = tmp_path_factory.mktemp("blender_user")
     env = dict(os.environ, BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_SCRIPTS=str(user / "scripts"),
                BLENDER_USER_EXTENSIONS=str(user / "extensions"), BLENDER_USER_DATAFILES=str(user / "datafiles"))
+    shots = tmp_path_factory.mktemp("shots")
+    # Saved preferences without the splash: a first start would cover the window with Quick Setup.
+    blend = shots / "empty.blend"
+    subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
+                    "import bpy; bpy.context.preferences.view.show_splash = False; bpy.ops.wm.save_userpref(); "
+                    f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"],
+                   env=env, check=True, capture_output=True, timeout=120)
     if blender_version() >= (4, 2):
         module = "bl_ext.user_default.raylab"
         install = ["blender", "-b", "--command", "extension", "install-file", "-r", "user_default",
@@ -68,12 +75,6 @@ def session(packaged, tmp_path_factory):
     run = subprocess.run(install, env=env, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
     os.makedirs(OUT, exist_ok=True)
-    shots = tmp_path_factory.mktemp("shots")
-    # A file opened from the command line keeps the first-run splash screen out of the screenshots.
-    blend = shots / "empty.blend"
-    subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
-                    f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"],
-                   env=env, check=True, capture_output=True, timeout=120)
     report_path = shots / "report.json"
     run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", str(blend), "--python-exit-code", "1",
                           "--python", os.path.join(HERE, "extension_session.py"), "--", module, str(report_path),
@@ -109,3 +110,30 @@ def test_f12_renders_through_the_installed_extension(session):
     image = pixels[top:top + region["height"], region["x"]:region["x"] + region["width"]]
     # A rendered level, not an empty or black window: many distinct colours, a bright part.
     assert len(np.unique(image.reshape(-1, 3), axis=0)) > 200 and image.max() > 150
+
+
+def test_a_build_for_another_python_says_which_python_it_needs(tmp_path):
+    """The add-on installed with only a module for another Python (a stand-in named for Python 3.99):
+    enabling it registers, with one message in the add-on's preferences and no traceback."""
+    scripts = tmp_path / "scripts"
+    target = scripts / "addons" / "raylab"
+    shutil.copytree(os.path.join(ROOT, "addon", "raylab"), target,
+                    ignore=shutil.ignore_patterns("_raylab*.so", "__pycache__"))
+    (target / "_raylab.cpython-399-x86_64-linux-gnu.so").write_bytes(b"not a module for this Python")
+    script = tmp_path / "enable.py"
+    script.write_text(
+        "import json, sys, addon_utils, bpy\n"
+        "addon_utils.enable('raylab', default_set=True)\n"
+        "addon = bpy.context.preferences.addons.get('raylab')\n"
+        "print('REPORT' + json.dumps({'enabled': addon is not None,\n"
+        "    'preferences': type(addon.preferences).__name__ if addon and addon.preferences else None,\n"
+        "    'error': sys.modules['raylab'].native.ERROR,\n"
+        "    'python': '%d.%d' % sys.version_info[:2]}))\n")
+    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(scripts), BLENDER_USER_CONFIG=str(tmp_path / "config"))
+    run = subprocess.run(["blender", "-b", "--python-exit-code", "1", "--python", str(script)],
+                         env=env, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    report = json.loads(next(line[6:] for line in run.stdout.splitlines() if line.startswith("REPORT")))
+    assert report["enabled"] and report["preferences"] == "RAYLAB_AP_native_missing"
+    assert "built for Python 3.99" in report["error"] and f"runs Python {report['python']}" in report["error"]
+    assert "Traceback" not in run.stdout + run.stderr

@@ -31,12 +31,15 @@ def write_image(path, image):
         picture.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())  # Blender's rows go up
         picture.filepath_raw = path
         picture.file_format = file_format
-        if file_format == 'PNG':
-            picture.colorspace_settings.name = 'Linear' if 'Linear' in _colorspaces(picture) else 'Linear Rec.709'
+        # PNG: Blender converts the linear floats to 8-bit sRGB itself. EXR: the floats as they are
+        # (without this, Blender writes them sRGB-encoded).
+        picture.colorspace_settings.is_data = file_format == 'OPEN_EXR'
         picture.save()
     finally:
         bpy.data.images.remove(picture)
 
 
-def _colorspaces(picture):
-    return {item.identifier for item in picture.colorspace_settings.bl_rna.properties["name"].enum_items}
+def linear_colorspace(picture):
+    """The name of the linear Rec.709 colour space: 'Linear' in 3.x, 'Linear Rec.709' from 4.0."""
+    names = {item.identifier for item in picture.colorspace_settings.bl_rna.properties["name"].enum_items}
+    return next(name for name in ("Linear Rec.709", "Linear") if name in names)
