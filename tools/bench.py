@@ -1,5 +1,5 @@
-"""./raylab bench: measure raylab's structures against Embree 3 and Blender's BVHTree, reproduce the
-VRT thesis's render experiment (its section 6.1), and chart speed against accuracy.
+"""./raylab bench: measure raylab's structures against Embree (3 on Debian 12, 4 on Debian 13) and
+Blender's BVHTree, reproduce the VRT thesis's render experiment (its section 6.1), and chart speed against accuracy.
 
     /usr/bin/python3 tools/bench.py [--quick] [--out out/bench] [--build-dir build]
 
@@ -684,8 +684,9 @@ def chart_ratios(results, path):
     ax.axhline(1.0, color="k", lw=1)
     ax.set_xticks(np.arange(len(meshes)) + 0.4 - width / 2)
     ax.set_xticklabels(meshes)
-    ax.set_ylabel("raylab BVH / Embree 3 (ratio)")
-    ax.set_title("raylab BVH against Embree 3 on the same rays, 2 threads (1 = equal; rays/s above 1 is faster, "
+    embree = f"Embree {results['machine']['embree']}"
+    ax.set_ylabel(f"raylab BVH / {embree} (ratio)")
+    ax.set_title(f"raylab BVH against {embree} on the same rays, 2 threads (1 = equal; rays/s above 1 is faster, "
                  "seconds and bytes above 1 are worse)", fontsize=9)
     ax.grid(axis="y", alpha=0.3)
     legend_below(fig, ax, len(keys))

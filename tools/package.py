@@ -146,7 +146,7 @@ license = ["SPDX:GPL-3.0-or-later"]
 platforms = ["{PLATFORM}"]
 
 [permissions]
-files = "Reads mesh files for the levels and writes rendered images and benchmark results"
+files = "Reads mesh files and writes rendered images"
 '''
 
 

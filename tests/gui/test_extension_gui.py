@@ -42,6 +42,10 @@ def test_extension_zip_has_a_valid_manifest_and_a_self_contained_module(packaged
     assert manifest["schema_version"] == "1.0.0" and manifest["id"] == "raylab" and manifest["type"] == "add-on"
     assert manifest["blender_version_min"] == "4.2.0" and manifest["platforms"] == ["linux-x64"]
     assert manifest["license"] and manifest["permissions"]["files"]
+    if blender_version() >= (4, 2):  # Blender's own check of the manifest and the zip
+        run = subprocess.run(["blender", "-b", "--factory-startup", "--command", "extension", "validate",
+                              str(packaged["extension"])], capture_output=True, text=True, timeout=120)
+        assert run.returncode == 0 and "FATAL" not in run.stdout + run.stderr, run.stdout + run.stderr
     tag = package.python_tag()
     assert f"_raylab.cpython-{tag[2:]}-x86_64-linux-gnu.so" in names
     assert any(name.startswith(f"libs/{tag}/libtbb-") for name in names), names
