@@ -354,8 +354,12 @@ def _draw_text():
     scale = context.preferences.system.ui_scale
     size = round(13 * scale)
     left = 12 * scale + sum(r.width for r in context.area.regions if r.type == 'TOOLS' and r.alignment == 'LEFT')
-    # Below Blender's own view name and object lines in the same corner.
-    y = context.region.height - 80 * scale
+    # Below Blender's own view name and object lines in the same corner, which start below the headers
+    # that overlap the view (4.x draws the view under its transparent header and tool header).
+    region = context.region
+    covered = sum(r.height for r in context.area.regions if r.type in {'HEADER', 'TOOL_HEADER'}
+                  and region.y <= r.y < region.y + region.height)
+    y = region.height - covered - 80 * scale
     font = 0
     blf.size(font, size)
     blf.enable(font, blf.SHADOW)
