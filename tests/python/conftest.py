@@ -1,11 +1,13 @@
-"""Puts the add-on folder on sys.path so that `import raylab` loads the package of this checkout."""
+"""Puts the add-on folder on sys.path so that `import raylab` loads the package of this checkout (or the
+one in $RAYLAB_ADDON_DIR: ./raylab test --sanitize points it at the sanitized build's copy)."""
 import functools
+import os
 import pathlib
 import sys
 
 import pytest
 
-ADDON = pathlib.Path(__file__).resolve().parents[2] / "addon"
+ADDON = pathlib.Path(os.environ.get("RAYLAB_ADDON_DIR", pathlib.Path(__file__).resolve().parents[2] / "addon"))
 sys.path.insert(0, str(ADDON))
 
 import raylab  # noqa: E402
