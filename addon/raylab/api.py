@@ -8,10 +8,10 @@
     b = s.boxes()                                    # the boxes, for drawing
     sc = raylab.Scene(structure="bvh")               # instances of shared meshes; sc.intersect(...)
 
-Bad input raises ValueError naming the problem; a build over the memory budget raises BuildError.
+Bad input raises ValueError naming the problem (for an argument: its name and what it accepts); a
+build over the memory budget raises BuildError.
 """
 import math
-import os
 import sys
 
 from . import _raylab
@@ -67,8 +67,12 @@ class RayStory(_Record):
 
 
 def load_mesh(path):
-    """Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles). OSError if unreadable."""
-    return _raylab.load_mesh(os.fspath(path))
+    """Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles).
+
+    OSError if the file cannot be read; ValueError for a directory, a path with a NUL character, or a
+    file whose `v` lines lack three finite numbers (the message names the file and line).
+    """
+    return _raylab.load_mesh(path)  # path: str, bytes or os.PathLike, checked natively
 
 
 class Structure:
@@ -131,7 +135,7 @@ def build(vertices, triangles, structure="bvh", max_depth=6, leaf_size=8, triang
 def build_file(path, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
                memory_budget=None):
     """build() over the mesh read from an OBJ file."""
-    return Structure(_raylab.build_file(os.fspath(path), structure, max_depth, leaf_size, triangle_test,
+    return Structure(_raylab.build_file(path, structure, max_depth, leaf_size, triangle_test,
                                         memory_budget))
 
 

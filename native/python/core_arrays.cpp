@@ -117,12 +117,14 @@ const char* triangle_test_name(TriangleTest test) {
   return test == TriangleTest::Watertight ? "watertight" : "moller_trumbore";
 }
 
-BuildSettings settings_from_arguments(const std::string& structure, int max_depth, int leaf_size,
-                                      const std::string& triangle_test, py::handle memory_budget) {
+BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
+                                      py::handle triangle_test_name, py::handle memory_budget) {
   BuildSettings s;
-  s.kind = structure_kind_from_name(structure);
-  s.max_depth = max_depth;
-  s.leaf_size = leaf_size;
+  s.kind = structure_kind_from_name(str_parameter(structure, "structure", "none, aabb, octree or bvh"));
+  s.max_depth = int32_parameter(max_depth, "max_depth");
+  s.leaf_size = int32_parameter(leaf_size, "leaf_size");
+  const std::string triangle_test =
+      str_parameter(triangle_test_name, "triangle_test", "watertight or moller_trumbore");
   if (triangle_test == "watertight") s.triangle_test = TriangleTest::Watertight;
   else if (triangle_test == "moller_trumbore") s.triangle_test = TriangleTest::MollerTrumbore;
   else
@@ -130,10 +132,11 @@ BuildSettings settings_from_arguments(const std::string& structure, int max_dept
                                 "': expected watertight or moller_trumbore");
   if (!memory_budget.is_none()) {
     if (!py::isinstance<py::int_>(memory_budget) || py::isinstance<py::bool_>(memory_budget))
-      throw std::invalid_argument("memory_budget must be a whole number of bytes or None");
+      throw std::invalid_argument("memory_budget must be a whole number of bytes or None, got " +
+                                  describe(memory_budget));
     const py::int_ budget = py::reinterpret_borrow<py::int_>(memory_budget);
     if (budget < py::int_(1))
-      throw std::invalid_argument("memory_budget must be positive, got " + std::string(py::repr(budget)));
+      throw std::invalid_argument("memory_budget must be positive, got " + describe(budget));
     // Anything beyond size_t is no limit at all.
     s.memory_budget = budget > py::int_(std::numeric_limits<size_t>::max()) ? std::numeric_limits<size_t>::max()
                                                                             : budget.cast<size_t>();
@@ -142,7 +145,9 @@ BuildSettings settings_from_arguments(const std::string& structure, int max_dept
   return s;
 }
 
-std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, double tmin, double tmax) {
+std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py::handle tmin_value,
+                                  py::handle tmax_value) {
+  const double tmin = number_parameter(tmin_value, "tmin"), tmax = number_parameter(tmax_value, "tmax");
   check_interval(tmin, tmax);
   FloatRows o = float_rows(origins, "origins", true);
   FloatRows d = float_rows(directions, "directions", true);
@@ -159,7 +164,8 @@ std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, dou
   return rays;
 }
 
-Ray ray_from_arrays(py::handle origin, py::handle direction, double tmin, double tmax) {
+Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin_value, py::handle tmax_value) {
+  const double tmin = number_parameter(tmin_value, "tmin"), tmax = number_parameter(tmax_value, "tmax");
   check_interval(tmin, tmax);
   FloatRows o = float_rows(origin, "origin", true);
   FloatRows d = float_rows(direction, "direction", true);

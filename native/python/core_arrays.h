@@ -3,6 +3,8 @@
 // mistake becomes a ValueError that names it instead of a crash.
 #pragma once
 
+#include "parameters.h"
+
 #include "raylab/geometry.h"
 #include "raylab/structure.h"
 
@@ -20,14 +22,16 @@ namespace py = pybind11;
 // converted to float32; negative or out-of-range indices and non-finite coordinates raise.
 MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles);
 
-// The keywords every build takes -> validated settings (unknown names and bad values raise).
-BuildSettings settings_from_arguments(const std::string& structure, int max_depth, int leaf_size,
-                                      const std::string& triangle_test, py::handle memory_budget);
+// The keywords every build takes, as any Python objects -> validated settings (a wrong type,
+// unknown name or bad value raises a ValueError naming the keyword).
+BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
+                                      py::handle triangle_test, py::handle memory_budget);
 
-// (N,3) origins and directions; either may be a single (3,) row shared by all rays.
-std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, double tmin, double tmax);
+// (N,3) origins and directions; either may be a single (3,) row shared by all rays. tmin and tmax
+// are any Python objects, read as real numbers.
+std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax);
 // One ray from (3,) origin and direction.
-Ray ray_from_arrays(py::handle origin, py::handle direction, double tmin, double tmax);
+Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin, py::handle tmax);
 
 // Closest hits as numpy arrays: t, triangle, u, v, instance, hit. `single_instance` reports
 // instance 0 for every hit (a lone structure has no instance of its own).
@@ -40,9 +44,10 @@ const char* triangle_test_name(TriangleTest test);
 // A batch query: rays from the arrays, `trace(rays, results, stats)` with the GIL released while both
 // cores trace, then the results as a dict of arrays plus "stats" (None unless `count`).
 template <class Result, class Trace, class ToDict>
-py::dict trace_arrays(py::handle origins, py::handle directions, double tmin, double tmax, bool count, Trace trace,
-                      ToDict to_dict) {
+py::dict trace_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
+                      py::handle count_flag, Trace trace, ToDict to_dict) {
   const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
+  const bool count = bool_parameter(count_flag, "count");
   std::vector<Result> results(rays.size());
   TraversalStats stats;
   {
@@ -57,8 +62,8 @@ py::dict trace_arrays(py::handle origins, py::handle directions, double tmin, do
 // The batch queries of the Python API, for a Structure or a Scene (both have intersect_closest and
 // intersect_any).
 template <class Target>
-py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, double tmin, double tmax,
-                        bool count) {
+py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
+                        py::handle tmax, py::handle count) {
   return trace_arrays<Hit>(
       origins, directions, tmin, tmax, count,
       [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats) {
@@ -68,8 +73,8 @@ py::dict intersect_rays(const Target& target, py::handle origins, py::handle dir
 }
 
 template <class Target>
-py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, double tmin, double tmax,
-                       bool count) {
+py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
+                       py::handle tmax, py::handle count) {
   return trace_arrays<uint8_t>(
       origins, directions, tmin, tmax, count,
       [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats) {

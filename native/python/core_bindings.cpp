@@ -22,13 +22,14 @@ StructurePtr build(MeshPtr mesh, const BuildSettings& settings) {
   return build_structure(std::move(mesh), settings);
 }
 
-// A mesh file that cannot be read is an OSError naming the path, as for Python's own open().
+// A mesh file that cannot be read is an OSError naming the path, as for Python's own open(); a path
+// that names no file (NUL, directory) or a file with invalid content is a ValueError.
 TriangleMesh read_mesh_file(const std::string& path) {
   try {
     py::gil_scoped_release release;
     return load_mesh(path);
   } catch (const std::invalid_argument&) {
-    throw;  // a file that reads but holds an invalid mesh: a ValueError from validate()
+    throw;  // a bad path or a file that reads but holds an invalid mesh: ValueError
   } catch (const std::runtime_error& e) {
     std::string message = e.what();
     message.erase(message.find_last_not_of(" \n") + 1);  // the loader ends its messages with a newline
@@ -77,7 +78,7 @@ py::dict boxes(const Structure& s) {
   return d;
 }
 
-py::dict story(const Structure& s, py::handle origin, py::handle direction, double tmin, double tmax) {
+py::dict story(const Structure& s, py::handle origin, py::handle direction, py::handle tmin, py::handle tmax) {
   const Ray ray = ray_from_arrays(origin, direction, tmin, tmax);
   RayStory st;
   {
@@ -126,7 +127,8 @@ void bind_core(py::module_& m) {
   py::register_exception<BuildError>(m, "BuildError", PyExc_RuntimeError);
 
   m.def(
-      "load_mesh", [](const std::string& path) { return mesh_to_arrays(read_mesh_file(path)); }, py::arg("path"),
+      "load_mesh",
+      [](py::handle path) { return mesh_to_arrays(read_mesh_file(path_parameter(path, "path"))); }, py::arg("path"),
       "Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles).");
 
   py::class_<Structure, StructurePtr>(m, "Structure", "An acceleration structure over one mesh (keeps it alive).")
@@ -151,8 +153,8 @@ void bind_core(py::module_& m) {
 
   m.def(
       "build",
-      [](py::handle vertices, py::handle triangles, const std::string& structure, int max_depth, int leaf_size,
-         const std::string& triangle_test, py::handle memory_budget) {
+      [](py::handle vertices, py::handle triangles, py::handle structure, py::handle max_depth, py::handle leaf_size,
+         py::handle triangle_test, py::handle memory_budget) {
         const BuildSettings settings =
             settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
         return build(mesh_from_arrays(vertices, triangles), settings);
@@ -162,11 +164,12 @@ void bind_core(py::module_& m) {
 
   m.def(
       "build_file",
-      [](const std::string& path, const std::string& structure, int max_depth, int leaf_size,
-         const std::string& triangle_test, py::handle memory_budget) {
+      [](py::handle path, py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
+         py::handle memory_budget) {
+        const std::string file = path_parameter(path, "path");
         const BuildSettings settings =
             settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
-        return build(std::make_shared<const TriangleMesh>(read_mesh_file(path)), settings);
+        return build(std::make_shared<const TriangleMesh>(read_mesh_file(file)), settings);
       },
       py::arg("path"), py::arg("structure") = "bvh", py::arg("max_depth") = 6, py::arg("leaf_size") = 8,
       py::arg("triangle_test") = "watertight", py::arg("memory_budget") = py::none());

@@ -22,13 +22,6 @@ glm::mat4 matrix_from_array(py::handle matrix) {
   return g;
 }
 
-uint32_t id(int64_t value, size_t count, const char* what) {
-  if (value < 0 || uint64_t(value) >= count)
-    throw std::invalid_argument("unknown " + std::string(what) + " id " + std::to_string(value) + ": the scene has " +
-                                std::to_string(count));
-  return uint32_t(value);
-}
-
 // Per-corner normals (T,3,3) or per-vertex normals (V,3), expanded to corners, for `mesh`; the
 // scene validates their count and values.
 std::vector<glm::vec3> corner_normals_from_array(const TriangleMesh& mesh, py::handle normals) {
@@ -63,7 +56,7 @@ auto with_normals(py::handle vertices, py::handle triangles, py::handle normals,
 void bind_scene(py::module_& m) {
   constexpr double kNoLimit = std::numeric_limits<double>::infinity();
   py::class_<Scene>(m, "Scene", "Meshes and their instances; one structure per mesh shared by its instances.")
-      .def(py::init([](const std::string& structure, int max_depth, int leaf_size, const std::string& triangle_test,
+      .def(py::init([](py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
                        py::handle memory_budget) {
              return std::make_unique<Scene>(
                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget));
@@ -82,8 +75,8 @@ void bind_scene(py::module_& m) {
           py::arg("vertices"), py::arg("triangles"), py::arg("normals") = py::none())
       .def(
           "replace_mesh",
-          [](Scene& s, int64_t mesh, py::handle vertices, py::handle triangles, py::handle normals) {
-            const uint32_t m = id(mesh, s.mesh_count(), "mesh");
+          [](Scene& s, py::handle mesh, py::handle vertices, py::handle triangles, py::handle normals) {
+            const uint32_t m = id_parameter(mesh, s.mesh_count(), "mesh");
             with_normals(vertices, triangles, normals, [&](MeshPtr replacement, std::vector<glm::vec3> corners) {
               s.replace_mesh(m, std::move(replacement));
               if (!corners.empty()) s.set_shading_normals(m, std::move(corners));
@@ -93,21 +86,22 @@ void bind_scene(py::module_& m) {
           py::arg("mesh"), py::arg("vertices"), py::arg("triangles"), py::arg("normals") = py::none())
       .def(
           "add_instance",
-          [](Scene& s, int64_t mesh, py::handle matrix, int64_t material) {
-            if (material < 0 || material > int64_t(std::numeric_limits<uint32_t>::max()))
-              throw std::invalid_argument("material must be a non-negative index, got " + std::to_string(material));
-            return s.add_instance(id(mesh, s.mesh_count(), "mesh"), matrix_from_array(matrix), uint32_t(material));
+          [](Scene& s, py::handle mesh, py::handle matrix, py::handle material) {
+            const uint32_t m = id_parameter(mesh, s.mesh_count(), "mesh");
+            const auto index = uint32_t(integer_parameter(material, "material", 0, std::numeric_limits<uint32_t>::max(),
+                                                          "a non-negative index that fits in 32 bits"));
+            return s.add_instance(m, matrix_from_array(matrix), index);
           },
           py::arg("mesh"), py::arg("matrix"), py::arg("material") = 0)
       .def(
           "set_transform",
-          [](Scene& s, int64_t instance, py::handle matrix) {
-            s.set_transform(id(instance, s.instance_count(), "instance"), matrix_from_array(matrix));
+          [](Scene& s, py::handle instance, py::handle matrix) {
+            s.set_transform(id_parameter(instance, s.instance_count(), "instance"), matrix_from_array(matrix));
           },
           py::arg("instance"), py::arg("matrix"))
       .def(
           "set_settings",
-          [](Scene& s, const std::string& structure, int max_depth, int leaf_size, const std::string& triangle_test,
+          [](Scene& s, py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
              py::handle memory_budget) {
             s.set_settings(settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget));
           },

@@ -43,32 +43,19 @@ class Fields {
   double number(const char* key, double fallback) {
     const py::object v = take(key);
     if (!v) return fallback;
-    try {
-      const double d = v.cast<double>();
-      if (!std::isfinite(d)) value_error(name(key) + " must be finite");
-      return d;
-    } catch (const py::cast_error&) {
-      value_error(name(key) + " must be a number");
-    }
+    const double d = number_parameter(v, name(key));
+    if (!std::isfinite(d)) value_error(name(key) + " must be finite");
+    return d;
   }
   int integer(const char* key, int fallback) {
     const py::object v = take(key);
     if (!v) return fallback;
-    if (py::isinstance<py::float_>(v)) value_error(name(key) + " must be an integer");
-    try {
-      return v.cast<int>();
-    } catch (const py::cast_error&) {
-      value_error(name(key) + " must be an integer (that fits in 32 bits)");
-    }
+    return int32_parameter(v, name(key));
   }
   bool boolean(const char* key, bool fallback) {
     const py::object v = take(key);
     if (!v) return fallback;
-    try {
-      return v.cast<bool>();
-    } catch (const py::cast_error&) {
-      value_error(name(key) + " must be True or False");
-    }
+    return bool_parameter(v, name(key));
   }
   glm::vec3 color(const char* key, glm::vec3 fallback) {
     const py::object v = take(key);
@@ -112,7 +99,7 @@ class Fields {
       }
     }
     for (const char* c : choices) list += std::string(list.empty() ? "" : ", ") + "'" + c + "'";
-    value_error(name(key) + " must be one of " + list + ", got " + py::repr(v).cast<std::string>());
+    value_error(name(key) + " must be one of " + list + ", got " + describe(v));
   }
   // Call after reading every key.
   void finish() const {
