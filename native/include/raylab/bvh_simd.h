@@ -81,9 +81,10 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
 struct Watertight4Ray {
   const WatertightRay& ray;
   __m128 origin[3];  // indexed by axis
-  __m128 sx, sy;
+  __m128 sx, sy, sz;
 
-  explicit Watertight4Ray(const WatertightRay& r) : ray(r), sx(_mm_set1_ps(r.sx)), sy(_mm_set1_ps(r.sy)) {
+  explicit Watertight4Ray(const WatertightRay& r)
+      : ray(r), sx(_mm_set1_ps(r.sx)), sy(_mm_set1_ps(r.sy)), sz(_mm_set1_ps(r.sz)) {
     for (int a = 0; a < 3; ++a) origin[a] = _mm_set1_ps(r.origin[a]);
   }
 };
@@ -95,14 +96,14 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
                                  float t_out[4], float u_out[4], float v_out[4]) {
   const int kx = r.ray.kx, ky = r.ray.ky, kz = r.ray.kz;
   const __m128 sign = _mm_set1_ps(-0.0f);
-  __m128 x[3], y[3], az = _mm_setzero_ps();  // per corner, sheared; az: max |p - o| along kz
+  __m128 x[3], y[3], ez[3], az = _mm_setzero_ps();  // per corner, sheared; az: max |p - o| along kz
   for (int c = 0; c < 3; ++c) {
     const __m128 ex = _mm_sub_ps(_mm_load_ps(packet.p[c][kx]), r.origin[kx]);
     const __m128 ey = _mm_sub_ps(_mm_load_ps(packet.p[c][ky]), r.origin[ky]);
-    const __m128 ez = _mm_sub_ps(_mm_load_ps(packet.p[c][kz]), r.origin[kz]);
-    x[c] = _mm_sub_ps(ex, _mm_mul_ps(r.sx, ez));
-    y[c] = _mm_sub_ps(ey, _mm_mul_ps(r.sy, ez));
-    az = _mm_max_ps(az, _mm_andnot_ps(sign, ez));
+    ez[c] = _mm_sub_ps(_mm_load_ps(packet.p[c][kz]), r.origin[kz]);
+    x[c] = _mm_sub_ps(ex, _mm_mul_ps(r.sx, ez[c]));
+    y[c] = _mm_sub_ps(ey, _mm_mul_ps(r.sy, ez[c]));
+    az = _mm_max_ps(az, _mm_andnot_ps(sign, ez[c]));
   }
   // Corners a, b, c = 0, 1, 2.
   const __m128 u = _mm_sub_ps(_mm_mul_ps(x[2], y[1]), _mm_mul_ps(y[2], x[1]));
@@ -120,8 +121,18 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
       _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, nbound), _mm_cmplt_ps(v, nbound)), _mm_cmplt_ps(w, nbound));
   const __m128 positive =
       _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, bound), _mm_cmpgt_ps(v, bound)), _mm_cmpgt_ps(w, bound));
-  const int candidates = ~_mm_movemask_ps(_mm_and_ps(negative, positive)) & 0xf;
+  int candidates = ~_mm_movemask_ps(_mm_and_ps(negative, positive)) & 0xf;
   if (candidates == 0) return 0;  // the common case: the ray passes beside all four
+  // The hit's t is a convex combination of the corners' sheared z (to a few ulp): a lane whose z
+  // range lies wholly beyond tmax or at or before tmin cannot hit. The 2^-20 margin exceeds the float
+  // z's rounding and the double t's many times over; NaN compares false and keeps the lane.
+  const __m128 z0 = _mm_mul_ps(r.sz, ez[0]), z1 = _mm_mul_ps(r.sz, ez[1]), z2 = _mm_mul_ps(r.sz, ez[2]);
+  const __m128 zlo = _mm_min_ps(z0, _mm_min_ps(z1, z2)), zhi = _mm_max_ps(z0, _mm_max_ps(z1, z2));
+  const __m128 margin = _mm_set1_ps(0x1p-20f);
+  const __m128 below = _mm_sub_ps(zlo, _mm_mul_ps(margin, _mm_andnot_ps(sign, zlo)));
+  const __m128 above = _mm_add_ps(zhi, _mm_mul_ps(margin, _mm_andnot_ps(sign, zhi)));
+  candidates &= ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
+  if (candidates == 0) return 0;
   int mask = 0;
   for (int lane = 0; lane < 4; ++lane) {
     if (!(candidates >> lane & 1)) continue;
