@@ -113,8 +113,6 @@ Octree::Octree(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std:
     throw std::invalid_argument("octree max_depth must be <= " + std::to_string(kMaxDepth));
   if (mesh_->triangle_count() == 0) return;
   root_ = root_cube(mesh_->bounds());
-  const glm::vec3 e = root_.extent();
-  root_side_ = std::max({e.x, e.y, e.z});
   build();
 }
 

@@ -266,3 +266,83 @@ TEST(BvhTraversal, CountsAndStoryFollowTheSameTraversal) {
   EXPECT_EQ(missed.stats.rays_ignored, 1u);
   EXPECT_TRUE(missed.triangles.empty());
 }
+
+// Issue 10, finding 2: origins 1e-7 above a flat mesh (a sphere flattened to z = 0), rays in every
+// direction. The triangle test's error there is many times the distance to the surface; the padded
+// boxes must still contain every hit it reports.
+TEST(BvhExactness, OriginsJustAboveAFlatMeshMatchBruteForce) {
+  auto mesh = std::make_shared<TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/sphere.obj"));
+  for (glm::vec3& v : mesh->vertices) v.z = 0.0f;
+  const float radius = mesh->bounds().hi.x;
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  std::normal_distribution<float> normal;
+  std::vector<Ray> rays;
+  while (rays.size() < 20000) {
+    Ray r;
+    r.origin = {0.9f * radius * unit(rng), 0.9f * radius * unit(rng), 1e-7f};
+    r.direction = {normal(rng), normal(rng), normal(rng)};
+    if (glm::length(glm::vec2(r.origin)) < 0.9f * radius) rays.push_back(r);
+  }
+  for (StructureKind kind : {StructureKind::Aabb, StructureKind::Octree, StructureKind::Bvh}) {
+    SCOPED_TRACE(structure_kind_name(kind));
+    expect_same_as_brute_force(*build_structure(mesh, settings_for(kind)), rays);
+  }
+}
+
+// Finding 3: a shadow ray whose tmax lies a hair (1e-6 relative) past the surface it ends on.
+TEST(BvhExactness, TmaxJustPastAHitStillSeesIt) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  mesh->vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  mesh->triangles = {{0, 1, 2}, {0, 2, 3}};
+  const auto brute = build_structure(mesh, settings_for(StructureKind::None));
+  std::vector<std::unique_ptr<Structure>> structures;
+  for (StructureKind kind : {StructureKind::Aabb, StructureKind::Octree, StructureKind::Bvh})
+    structures.push_back(build_structure(mesh, settings_for(kind)));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (int i = 0; i < 2000; ++i) {
+    Ray r;
+    r.origin = {3 * unit(rng) - 1, 3 * unit(rng) - 1, 0.1f + 3 * unit(rng)};
+    r.direction = glm::vec3(unit(rng), unit(rng), 0.0f) - r.origin;
+    Hit expected;
+    ASSERT_TRUE(brute->closest(r, expected)) << "ray " << i;
+    r.tmax = expected.t * 1.000001f;
+    for (const auto& s : structures) {
+      Hit got;
+      ASSERT_TRUE(s->closest(r, got)) << structure_kind_name(s->kind()) << " ray " << i;
+      ASSERT_EQ(got.t, expected.t) << structure_kind_name(s->kind()) << " ray " << i;
+      ASSERT_TRUE(s->any(r)) << structure_kind_name(s->kind()) << " ray " << i;
+    }
+  }
+}
+
+// Finding 4: a negative tmin means the same to every structure (the hit behind the origin).
+TEST(BvhExactness, NegativeTminIsTheSameForEveryStructure) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  mesh->vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  mesh->triangles = {{0, 1, 2}, {0, 2, 3}};
+  Ray r;
+  r.origin = {0.2f, 0.3f, 0.5f};
+  r.direction = {0, 0, 1};
+  r.tmin = -1.0f;
+  for (StructureKind kind : {StructureKind::None, StructureKind::Aabb, StructureKind::Octree, StructureKind::Bvh}) {
+    const auto s = build_structure(mesh, settings_for(kind));
+    Hit h;
+    ASSERT_TRUE(s->closest(r, h)) << structure_kind_name(kind);
+    EXPECT_EQ(h.t, -0.5f) << structure_kind_name(kind);
+    EXPECT_TRUE(s->any(r)) << structure_kind_name(kind);
+  }
+}
+
+// Finding 7's other side: coordinates up to the limit are hit by every structure, exactly as brute force.
+TEST(BvhExactness, CoordinatesUpToTheLimitMatchBruteForce) {
+  for (float scale : {1e-15f, 1e18f, kMaxCoordinate / 2}) {  // random_rays squares lengths: not 1e-30
+    auto mesh = std::make_shared<TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/bunny.obj"));
+    const float extent = glm::length(mesh->bounds().extent());
+    for (glm::vec3& v : mesh->vertices) v *= scale / extent;
+    SCOPED_TRACE(scale);
+    for (StructureKind kind : {StructureKind::Aabb, StructureKind::Octree, StructureKind::Bvh})
+      expect_same_as_brute_force(*build_structure(mesh, settings_for(kind)), random_rays(mesh->bounds(), 1000, 5));
+  }
+}

@@ -433,3 +433,28 @@ TEST(Octree, TestsFarFewerTrianglesThanAabb) {
   EXPECT_GT(aabb.triangle_tests, 0u);
   EXPECT_LT(per_ray_octree, 0.1 * per_ray_aabb);
 }
+
+// Issue 10, finding 5: a tiny negative direction component (here below float's smallest normal)
+// with the origin on the octree's split planes. It behaves exactly like zero, in every structure.
+TEST(OctreeExactness, TinyDirectionComponentsOnASplitPlaneBehaveLikeZero) {
+  const MeshPtr sphere = shipped("sphere.obj");
+  const auto reference = build(sphere, StructureKind::None);
+  Ray zero;
+  zero.origin = {-5, 0, 0};
+  zero.direction = {1, 0, 0};
+  Hit expected;
+  ASSERT_TRUE(reference->closest(zero, expected));
+  EXPECT_NEAR(expected.t, 4.0f, 1e-5f);
+  for (float z : {-1e-39f, -2.8e-39f, -1e-45f, -0.0f, 1e-39f, -1e-30f, -1e-20f}) {
+    Ray tiny = zero;
+    tiny.direction.z = z;
+    for (StructureKind kind : {StructureKind::None, StructureKind::Aabb, StructureKind::Octree, StructureKind::Bvh}) {
+      const auto s = build(sphere, kind, 8, 1);
+      Hit h;
+      ASSERT_TRUE(s->closest(tiny, h)) << structure_kind_name(kind) << " z = " << z;
+      EXPECT_EQ(h.t, expected.t) << structure_kind_name(kind) << " z = " << z;
+      EXPECT_EQ(h.triangle, expected.triangle) << structure_kind_name(kind) << " z = " << z;
+      EXPECT_TRUE(s->any(tiny)) << structure_kind_name(kind) << " z = " << z;
+    }
+  }
+}

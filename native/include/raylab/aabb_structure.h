@@ -37,7 +37,7 @@ class AabbStructure final : public StructureBase<AabbStructure> {
   template <class Recorder>
   bool enter(const Ray& ray, Recorder& record) const {
     float t_entry = ray.tmin;
-    const bool hit = !box_.empty() && intersect_box(box_, BoxRay(ray), ray.tmax, t_entry);
+    const bool hit = !box_.empty() && intersect_box(box_, BoxRay(ray, box_), ray.tmax, t_entry);
     record.box(0, box_, 0, hit, t_entry);
     if (!hit) {
       record.ignored();

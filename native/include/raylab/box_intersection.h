@@ -1,40 +1,65 @@
-// Ray/box slab test, robust for axis-parallel rays and under rounding.
+// Ray/box slab test, robust for axis-parallel rays and under rounding, and conservative with respect
+// to the triangle test's own error (the exactness contract: box culling never drops a hit the
+// triangle test would report; see README "Exactness and its limits").
 #pragma once
 
 #include "raylab/geometry.h"
 
+#include <algorithm>
+#include <cmath>
 #include <utility>
 
 namespace raylab {
 
-// The per-ray part of the slab test. A zero direction component gives an infinite reciprocal
-// (IEEE), so axis-parallel rays need no special case. Adding +0 turns a -0 component into +0: the
-// reciprocal is then +inf, never -inf, which keeps the NaN of an origin on a slab plane (0 * inf)
-// on the side that intersect_box ignores (with -inf the far distance of that slab became -inf and
-// a ray lying in a face plane missed the box).
+// How far, relative to the ray origin's distance from the structure's root box, every box is grown
+// before it is tested. The triangle test (triangle_intersection.h) decides its hits in double
+// precision and refuses hits whose barycentrics are ill-conditioned, so a hit it reports at t lies
+// within about 2^-18 of that distance of a point of the triangle, and its t is exact to a float
+// rounding: a box grown by 2^-16 of it (in the spirit of pbrt-v4's error bounds, with a 4x margin)
+// contains the ray at every t the triangle test can report for a triangle inside it. The same pad
+// also covers the slab test's own rounding (Ize 2013's 2*gamma(3)) several hundred times over.
+inline constexpr float kBoxPadScale = 0x1p-16f;
+
+// pbrt's gamma(3) bound: widening the far distance by 1 + 2*gamma(3) (about 2 ulp) makes an unpadded
+// test conservative under rounding (Ize 2013). Only the scene's top level over instances, which has
+// no root-relative pad, relies on it.
+inline constexpr float kBoxFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f) / (1.0f - 3.0f * 0x1p-24f);
+
+// The per-ray part of the slab test. The reciprocal of a zero component is +inf (IEEE), so
+// axis-parallel rays need no special case; effective_direction() turns -0 and tiny components into
+// +0, so the reciprocal is never -inf or a huge finite value, and the NaN of an origin on a slab plane
+// (0 * inf) stays on the side that intersect_box ignores.
 struct BoxRay {
   glm::vec3 origin;
   glm::vec3 inv_dir;
   float tmin, tmax;
+  float pad = 0.0f;  // every box is grown by this much on each side
 
+  // Unpadded: the scene's top level.
   explicit BoxRay(const Ray& ray)
-      : origin(ray.origin), inv_dir(1.0f / (ray.direction + 0.0f)), tmin(ray.tmin), tmax(ray.tmax) {}
+      : origin(ray.origin), inv_dir(1.0f / effective_direction(ray.direction)), tmin(ray.tmin), tmax(ray.tmax) {}
+
+  // Padded for a structure whose boxes all lie inside `root`.
+  BoxRay(const Ray& ray, const Bounds& root) : BoxRay(ray) { pad = box_pad(ray.origin, root); }
+
+  // kBoxPadScale times the largest distance, along any axis, from the origin to the root box.
+  static float box_pad(const glm::vec3& origin, const Bounds& root) {
+    if (root.empty()) return 0.0f;
+    const glm::vec3 far = glm::max(glm::abs(root.lo - origin), glm::abs(root.hi - origin));
+    return kBoxPadScale * std::max({far.x, far.y, far.z});
+  }
 };
 
-// pbrt's gamma(3) bound: widening the far distance by 1 + 2*gamma(3) (about 2 ulp) makes the test
-// conservative under rounding (Ize 2013), so a box is never missed that the exact ray hits.
-inline constexpr float kBoxFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f) / (1.0f - 3.0f * 0x1p-24f);
-
-// Returns true when the ray meets the box within [ray.tmin, tmax]; `t_entry` is where it enters
-// (ray.tmin when the origin is inside). The comparisons are written so that a NaN slab distance
-// (origin exactly on a slab plane of an axis-parallel ray: 0 * inf) is ignored rather than
-// propagated: such a ray lies in the face plane, and touching counts as a hit.
+// Returns true when the ray meets the box, grown by r.pad, within [ray.tmin, tmax] (both inclusive);
+// `t_entry` is where it enters (ray.tmin when the origin is inside). The comparisons are written so
+// that a NaN slab distance (origin exactly on a slab plane of an axis-parallel ray: 0 * inf) is
+// ignored rather than propagated: such a ray lies in the face plane, and touching counts as a hit.
 inline bool intersect_box(const Bounds& box, const BoxRay& r, float tmax, float& t_entry) {
   float t_near = r.tmin;
   float t_far = tmax;
   for (int axis = 0; axis < 3; ++axis) {
-    float t0 = (box.lo[axis] - r.origin[axis]) * r.inv_dir[axis];
-    float t1 = (box.hi[axis] - r.origin[axis]) * r.inv_dir[axis];
+    float t0 = ((box.lo[axis] - r.origin[axis]) - r.pad) * r.inv_dir[axis];
+    float t1 = ((box.hi[axis] - r.origin[axis]) + r.pad) * r.inv_dir[axis];
     if (t0 > t1) std::swap(t0, t1);
     t1 *= kBoxFarScale;
     t_near = t0 > t_near ? t0 : t_near;

@@ -15,11 +15,10 @@
 
 namespace raylab {
 
-// The far limit for box tests while a hit at `best_t` is known. A box entered exactly at best_t
-// must still be opened, since a triangle there may win the index tie-break. The slack (about 1e-5
-// relative) covers the box and triangle tests rounding the same point differently: a box's entry
-// lies exactly before its triangles' hits, but the computed distances each carry a few ulp of error,
-// more on grazing rays.
+// The far limit for the scene's top-level box tests (src/scene.cpp), whose boxes are not padded:
+// about 1e-5 relative slack for the box and triangle tests rounding the same point differently. The
+// structures themselves need none: their boxes are padded (box_intersection.h), and they open every
+// box entered at or before the best hit (inclusive, for the index tie-break).
 inline float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-16f; }
 
 class Bvh final : public StructureBase<Bvh> {
@@ -61,7 +60,7 @@ class Bvh final : public StructureBase<Bvh> {
   template <bool kClosest, class Recorder>
   bool traverse(const Ray& ray, Hit* hit, Recorder& record) const {
     record.ray();
-    const BoxRay box_ray(ray);
+    const BoxRay box_ray(ray, root_bounds_);
     Entry stack[kStackSize];
     int size = 0;
     if (!enter_root(box_ray, record, stack, size)) return false;
@@ -79,11 +78,11 @@ class Bvh final : public StructureBase<Bvh> {
       }
       descending = false;
       if constexpr (kClosest) {
-        if (e.t_entry > box_limit(best.t)) continue;
+        if (e.t_entry > best.t) continue;
       }
       record_node(e, record);
       if (e.count == 0) {
-        descending = visit_children<kClosest>(e, box4, kClosest ? box_limit(best.t) : ray.tmax, record, stack, size);
+        descending = visit_children<kClosest>(e, box4, kClosest ? best.t : ray.tmax, record, stack, size);
       } else if constexpr (kClosest) {
         found |= closest_in_leaf(tester, tri4, e, best, record);
       } else if (any_in_leaf(tester, tri4, e, record)) {

@@ -1,7 +1,8 @@
 // The SSE kernels of the 4-wide BVH: one ray against four boxes and against four triangles at once.
-// Both are lane-wise transcriptions of the scalar tests (intersect_box, intersect_watertight), with
-// the same operations in the same order and the same NaN handling, so they give bit-identical
-// results: SIMD changes the speed, never the answer.
+// The box kernel is a lane-wise transcription of intersect_box, with the same operations in the same
+// order and the same NaN handling; the triangle kernel is intersect_watertight's float filter, and
+// the lanes it cannot reject are decided by the same double-precision function as the scalar test.
+// Both give bit-identical results: SIMD changes the speed, never the answer.
 #pragma once
 
 #include "raylab/box_intersection.h"
@@ -42,9 +43,9 @@ static_assert(sizeof(TrianglePacket) == 160);
 // The per-ray constants of the 4-box test.
 struct Box4Ray {
   __m128 origin[3], inv_dir[3];
-  __m128 tmin;
+  __m128 tmin, pad;
 
-  explicit Box4Ray(const BoxRay& r) : tmin(_mm_set1_ps(r.tmin)) {
+  explicit Box4Ray(const BoxRay& r) : tmin(_mm_set1_ps(r.tmin)), pad(_mm_set1_ps(r.pad)) {
     for (int a = 0; a < 3; ++a) {
       origin[a] = _mm_set1_ps(r.origin[a]);
       inv_dir[a] = _mm_set1_ps(r.inv_dir[a]);
@@ -61,8 +62,10 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
   __m128 t_far = _mm_set1_ps(tmax);
   const __m128 far_scale = _mm_set1_ps(kBoxFarScale);
   for (int a = 0; a < 3; ++a) {
-    const __m128 t0 = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.lo[a]), r.origin[a]), r.inv_dir[a]);
-    const __m128 t1 = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(node.hi[a]), r.origin[a]), r.inv_dir[a]);
+    const __m128 t0 =
+        _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(_mm_load_ps(node.lo[a]), r.origin[a]), r.pad), r.inv_dir[a]);
+    const __m128 t1 =
+        _mm_mul_ps(_mm_add_ps(_mm_sub_ps(_mm_load_ps(node.hi[a]), r.origin[a]), r.pad), r.inv_dir[a]);
     const __m128 near = _mm_min_ps(t1, t0);
     const __m128 far = _mm_mul_ps(_mm_max_ps(t0, t1), far_scale);
     t_near = _mm_max_ps(near, t_near);
@@ -86,52 +89,58 @@ struct Watertight4Ray {
   }
 };
 
-// intersect_watertight on the four lanes of a packet. Returns the mask of lanes hit with
-// tmin < t <= tmax and their t, u, v. A lane with an edge function of exactly zero goes through the
-// scalar test, which owns the double-precision fallback.
+// intersect_watertight on the four lanes of a packet: the float filter on all four at once, then
+// intersect_watertight_exact on each lane the filter cannot reject. Returns the mask of lanes hit
+// with tmin < t <= tmax and their t, u, v.
 inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& packet, float tmin, float tmax,
                                  float t_out[4], float u_out[4], float v_out[4]) {
   const int kx = r.ray.kx, ky = r.ray.ky, kz = r.ray.kz;
-  __m128 x[3], y[3], z[3];  // per corner, sheared
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  __m128 x[3], y[3], ez[3], az = _mm_setzero_ps();  // per corner, sheared; az: max |p - o| along kz
   for (int c = 0; c < 3; ++c) {
     const __m128 ex = _mm_sub_ps(_mm_load_ps(packet.p[c][kx]), r.origin[kx]);
     const __m128 ey = _mm_sub_ps(_mm_load_ps(packet.p[c][ky]), r.origin[ky]);
-    const __m128 ez = _mm_sub_ps(_mm_load_ps(packet.p[c][kz]), r.origin[kz]);
-    x[c] = _mm_sub_ps(ex, _mm_mul_ps(r.sx, ez));
-    y[c] = _mm_sub_ps(ey, _mm_mul_ps(r.sy, ez));
-    z[c] = _mm_mul_ps(r.sz, ez);
+    ez[c] = _mm_sub_ps(_mm_load_ps(packet.p[c][kz]), r.origin[kz]);
+    x[c] = _mm_sub_ps(ex, _mm_mul_ps(r.sx, ez[c]));
+    y[c] = _mm_sub_ps(ey, _mm_mul_ps(r.sy, ez[c]));
+    az = _mm_max_ps(az, _mm_andnot_ps(sign, ez[c]));
   }
   // Corners a, b, c = 0, 1, 2.
   const __m128 u = _mm_sub_ps(_mm_mul_ps(x[2], y[1]), _mm_mul_ps(y[2], x[1]));
   const __m128 v = _mm_sub_ps(_mm_mul_ps(x[0], y[2]), _mm_mul_ps(y[0], x[2]));
   const __m128 w = _mm_sub_ps(_mm_mul_ps(x[1], y[0]), _mm_mul_ps(y[1], x[0]));
-  const __m128 zero = _mm_setzero_ps();
-  const int exact_zero =
-      _mm_movemask_ps(_mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)), _mm_cmpeq_ps(w, zero)));
+  const __m128 mx = _mm_max_ps(_mm_andnot_ps(sign, x[0]), _mm_max_ps(_mm_andnot_ps(sign, x[1]), _mm_andnot_ps(sign, x[2])));
+  const __m128 my = _mm_max_ps(_mm_andnot_ps(sign, y[0]), _mm_max_ps(_mm_andnot_ps(sign, y[1]), _mm_andnot_ps(sign, y[2])));
+  // watertight_filter_bound, operation for operation.
+  const __m128 s = _mm_add_ps(mx, my);
+  const __m128 bound = _mm_add_ps(
+      _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(32.0f * 0x1p-24f), _mm_add_ps(s, _mm_mul_ps(_mm_set1_ps(2.0f), az))), s),
+      _mm_set1_ps(0x1p-126f));
+  const __m128 nbound = _mm_xor_ps(bound, sign);
   const __m128 negative =
-      _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
+      _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, nbound), _mm_cmplt_ps(v, nbound)), _mm_cmplt_ps(w, nbound));
   const __m128 positive =
-      _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
-  const __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
-  const __m128 inside = _mm_andnot_ps(_mm_and_ps(negative, positive), _mm_cmpneq_ps(det, zero));
-  int mask = _mm_movemask_ps(inside) & ~exact_zero;
-  if (mask == 0 && exact_zero == 0) return 0;  // the common case: the ray passes beside all four
-  const __m128 scaled_t =
-      _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, z[0]), _mm_mul_ps(v, z[1])), _mm_mul_ps(w, z[2]));
-  const __m128 inv_det = _mm_div_ps(_mm_set1_ps(1.0f), det);
-  const __m128 t = _mm_mul_ps(scaled_t, inv_det);
-  const __m128 in_range = _mm_and_ps(_mm_cmpgt_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
-  mask &= _mm_movemask_ps(in_range);
-  _mm_storeu_ps(t_out, t);
-  _mm_storeu_ps(u_out, _mm_mul_ps(v, inv_det));
-  _mm_storeu_ps(v_out, _mm_mul_ps(w, inv_det));
+      _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, bound), _mm_cmpgt_ps(v, bound)), _mm_cmpgt_ps(w, bound));
+  int candidates = ~_mm_movemask_ps(_mm_and_ps(negative, positive)) & 0xf;
+  if (candidates == 0) return 0;  // the common case: the ray passes beside all four
+  // The hit's t is a convex combination of the corners' sheared z (to a few ulp): a lane whose z
+  // range lies wholly beyond tmax or at or before tmin cannot hit. The 2^-20 margin exceeds the float
+  // z's rounding and the double t's many times over; NaN compares false and keeps the lane.
+  const __m128 z0 = _mm_mul_ps(r.sz, ez[0]), z1 = _mm_mul_ps(r.sz, ez[1]), z2 = _mm_mul_ps(r.sz, ez[2]);
+  const __m128 zlo = _mm_min_ps(z0, _mm_min_ps(z1, z2)), zhi = _mm_max_ps(z0, _mm_max_ps(z1, z2));
+  const __m128 margin = _mm_set1_ps(0x1p-20f);
+  const __m128 below = _mm_sub_ps(zlo, _mm_mul_ps(margin, _mm_andnot_ps(sign, zlo)));
+  const __m128 above = _mm_add_ps(zhi, _mm_mul_ps(margin, _mm_andnot_ps(sign, zhi)));
+  candidates &= ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
+  if (candidates == 0) return 0;
+  int mask = 0;
   for (int lane = 0; lane < 4; ++lane) {
-    if (!(exact_zero >> lane & 1)) continue;
+    if (!(candidates >> lane & 1)) continue;
     const glm::vec3 p0(packet.p[0][0][lane], packet.p[0][1][lane], packet.p[0][2][lane]);
     const glm::vec3 p1(packet.p[1][0][lane], packet.p[1][1][lane], packet.p[1][2][lane]);
     const glm::vec3 p2(packet.p[2][0][lane], packet.p[2][1][lane], packet.p[2][2][lane]);
     TriangleHit h;
-    if (intersect_watertight(r.ray, p0, p1, p2, tmin, tmax, h)) {
+    if (intersect_watertight_exact(r.ray, p0, p1, p2, tmin, tmax, h)) {
       mask |= 1 << lane;
       t_out[lane] = h.t;
       u_out[lane] = h.u;

@@ -3,6 +3,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -14,6 +15,12 @@ namespace raylab {
 inline constexpr float kInfinity = std::numeric_limits<float>::infinity();
 inline constexpr uint32_t kInvalidIndex = 0xffffffffu;
 
+// The largest |coordinate| a mesh vertex may have (2^61, about 2.3e18). Within it, vertex differences
+// (<= 2^62), sheared coordinates (<= 2^63) and the float filter's edge products (<= 2^126), as well as
+// the builders' surface areas, stay finite; past about 2^62 the products overflow float's 2^128 and
+// the float tests stop being exact. TriangleMesh::validate refuses larger coordinates.
+inline constexpr float kMaxCoordinate = 0x1p61f;
+
 struct Ray {
   glm::vec3 origin{0.0f};
   float tmin = 0.0f;
@@ -22,6 +29,20 @@ struct Ray {
 
   glm::vec3 at(float t) const { return origin + t * direction; }
 };
+
+// The direction every test uses: a denormal component, or one below 2^-40 of the largest, is
+// replaced by +0, so that a tiny or -0 component behaves exactly like zero in the box test, the
+// octant order and the triangle test alike. Over the part of the ray that can reach the mesh (a
+// distance of at most a few times the mesh's size along the largest component), the dropped
+// component moves the ray by under 2^-38 of that size, far inside the box padding (box_intersection.h).
+inline glm::vec3 effective_direction(const glm::vec3& d) {
+  const glm::vec3 a = glm::abs(d);
+  const float keep = 0x1p-40f * std::max(a.x, std::max(a.y, a.z));
+  glm::vec3 out;
+  for (int i = 0; i < 3; ++i)
+    out[i] = a[i] < keep || a[i] < std::numeric_limits<float>::min() ? 0.0f : d[i];
+  return out;
+}
 
 struct Hit {
   float t = kInfinity;
@@ -81,8 +102,8 @@ struct TriangleMesh {
   size_t memory_bytes() const {
     return vertices.capacity() * sizeof(glm::vec3) + triangles.capacity() * sizeof(glm::uvec3);
   }
-  // Throws std::invalid_argument naming the first problem: an index out of range or a non-finite
-  // coordinate.
+  // Throws std::invalid_argument naming the first problem: an index out of range, a non-finite
+  // coordinate or one beyond kMaxCoordinate.
   void validate() const;
 };
 

@@ -99,13 +99,6 @@ class Octree final : public StructureBase<Octree> {
   }
 
  private:
-  // Box tests and the early exit compare box distances with triangle distances, which are rounded
-  // differently. Widening the searched interval [tmin, tmax] by this fraction of the distances
-  // involved (|t| plus the octree's size along the ray) keeps every rounding difference on the safe
-  // side: a box holding the brute-force hit is never skipped, at the price of rarely testing a box
-  // that lies a hair beyond the hit.
-  static constexpr float kSearchSlack = 1e-5f;
-
   struct StackEntry {
     Bounds box;
     uint32_t node;
@@ -117,25 +110,22 @@ class Octree final : public StructureBase<Octree> {
   // hit so far, or ray.tmax); `visit_leaf(node)` tests a leaf's triangles and returns true to stop.
   template <class Recorder, class Limit, class VisitLeaf>
   void walk(const Ray& ray, Recorder& record, Limit limit, VisitLeaf visit_leaf) const {
-    const float size_along_ray = 4.0f * root_side_ / glm::length(ray.direction);
-    auto widen = [&](float t) { return kSearchSlack * (std::abs(t) + size_along_ray); };
-    Ray search = ray;
-    search.tmin = ray.tmin - widen(ray.tmin);
-    const BoxRay box_ray(search);
+    // Padded boxes (box_intersection.h): a box holding a triangle the triangle test hits at t is
+    // entered at or before t, so the walk needs no slack of its own.
+    const BoxRay box_ray(ray, root_);
 
     float t_root = ray.tmin;
-    const bool hit_root =
-        !nodes_.empty() && intersect_box(root_, box_ray, limit() + widen(limit()), t_root);
-    t_root = std::max(t_root, ray.tmin);
+    const bool hit_root = !nodes_.empty() && intersect_box(root_, box_ray, limit(), t_root);
     record.box(0, root_, 0, hit_root, t_root);
     if (!hit_root) {
       record.ignored();
       return;
     }
     // Visiting octants in the order k ^ near_octant is front to back: along a ray each octant bit
-    // can only turn on, so the octants a ray passes come in increasing order of k.
+    // can only turn on, so the octants a ray passes come in increasing order of k. The signs are the
+    // box test's (effective_direction): a tiny or -0 component counts as +0 in both.
     const int near_octant =
-        (ray.direction.x < 0.0f ? 1 : 0) | (ray.direction.y < 0.0f ? 2 : 0) | (ray.direction.z < 0.0f ? 4 : 0);
+        (box_ray.inv_dir.x < 0.0f ? 1 : 0) | (box_ray.inv_dir.y < 0.0f ? 2 : 0) | (box_ray.inv_dir.z < 0.0f ? 4 : 0);
 
     // DFS keeps at most the 8 children of one node per depth on the stack.
     StackEntry stack[8 * kMaxDepth + 1];
@@ -143,7 +133,7 @@ class Octree final : public StructureBase<Octree> {
     stack[top++] = {root_, 0, 0, t_root};
     while (top > 0) {
       const StackEntry entry = stack[--top];
-      const float far = limit() + widen(limit());
+      const float far = limit();
       if (entry.t_entry > far) continue;  // the closest hit so far lies before this box
       record.node(entry.node, entry.depth);
       const OctreeNode node = nodes_[entry.node];
@@ -160,7 +150,6 @@ class Octree final : public StructureBase<Octree> {
         const uint32_t child = node.child(octant);
         float t = ray.tmin;
         const bool hit = intersect_box(box, box_ray, far, t);
-        t = std::max(t, ray.tmin);
         record.box(child, box, entry.depth + 1, hit, t);
         if (hit) entered[count++] = {box, child, entry.depth + 1, t};
       }
@@ -171,7 +160,6 @@ class Octree final : public StructureBase<Octree> {
   void build();
 
   Bounds root_;
-  float root_side_ = 0.0f;
   std::vector<OctreeNode> nodes_;     // breadth first: node 0 is the root
   std::vector<uint32_t> triangles_;   // the leaves' runs, one after another
 };

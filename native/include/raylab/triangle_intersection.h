@@ -5,6 +5,7 @@
 
 #include "raylab/geometry.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -12,22 +13,28 @@ namespace raylab {
 
 enum class TriangleTest { Watertight, MollerTrumbore };
 
-// The per-ray part of the watertight test: the shear that maps the ray onto the +z axis.
+// The per-ray part of the watertight test: the shear that maps the ray onto the +z axis, in float
+// for the filter and in double for the decision.
 struct WatertightRay {
   glm::vec3 origin;
   int kx, ky, kz;
   float sx, sy, sz;
+  double dsx, dsy, dsz;
 
   explicit WatertightRay(const Ray& ray) : origin(ray.origin) {
-    const glm::vec3 a = glm::abs(ray.direction);
+    const glm::vec3 d = effective_direction(ray.direction);
+    const glm::vec3 a = glm::abs(d);
     kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
     kx = (kz + 1) % 3;
     ky = (kx + 1) % 3;
     // Swap to keep the winding, so that the sign of the determinant stays meaningful.
-    if (ray.direction[kz] < 0.0f) std::swap(kx, ky);
-    sx = ray.direction[kx] / ray.direction[kz];
-    sy = ray.direction[ky] / ray.direction[kz];
-    sz = 1.0f / ray.direction[kz];
+    if (d[kz] < 0.0f) std::swap(kx, ky);
+    sx = d[kx] / d[kz];
+    sy = d[ky] / d[kz];
+    sz = 1.0f / d[kz];
+    dsx = double(d[kx]) / double(d[kz]);
+    dsy = double(d[ky]) / double(d[kz]);
+    dsz = 1.0 / double(d[kz]);
   }
 };
 
@@ -36,8 +43,58 @@ struct TriangleHit {
   float t, u, v;
 };
 
+// The float filter's error bound on an edge function, from the sheared coordinates' magnitudes:
+// s = max|x| + max|y| over the corners and z = max|p - o| along the ray's main axis. Each sheared
+// coordinate is off by at most 2u(s + 2z) (u = 2^-24: the subtraction from the origin, the shear's
+// quotient, product and difference), and an edge function cx*by - cy*bx by at most about
+// 24u(s + 2z)s (pbrt-v4's gamma(n) accounting); 32u leaves room for the bound's own rounding, and the
+// FLT_MIN term for products that underflow.
+inline float watertight_filter_bound(float s, float z) {
+  return (32.0f * 0x1p-24f * (s + 2.0f * z)) * s + 0x1p-126f;
+}
+
+// The decision, in double precision: sheared coordinates from the float vertices and origin (their
+// differences are exact in double unless their magnitudes differ by more than 2^29), edge functions
+// and t. An edge function of exactly zero is a hit on the edge, for both triangles sharing it.
+// Refused as "lying in the triangle's plane": a hit whose determinant is below 2^-24 s^2 (the ray
+// within about 2^-24 of the plane, or a needle triangle). Its barycentrics would carry no digits, and
+// the point they name could lie anywhere on the triangle, far from the ray; above the threshold the
+// reported point lies within 2^-18 (relative to the origin's distance to the mesh) of the ray, which
+// the box pad covers. No hit is ever reported at an infinite or NaN t.
+inline bool intersect_watertight_exact(const WatertightRay& r, const glm::vec3& p0, const glm::vec3& p1,
+                                       const glm::vec3& p2, float tmin, float tmax, TriangleHit& out) {
+  double x[3], y[3], z[3];
+  const glm::vec3* p[3] = {&p0, &p1, &p2};
+  double sx = 0.0, sy = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    const double ax = double((*p[c])[r.kx]) - double(r.origin[r.kx]);
+    const double ay = double((*p[c])[r.ky]) - double(r.origin[r.ky]);
+    const double az = double((*p[c])[r.kz]) - double(r.origin[r.kz]);
+    x[c] = ax - r.dsx * az;
+    y[c] = ay - r.dsy * az;
+    z[c] = az;
+    sx = std::max(sx, std::abs(x[c]));
+    sy = std::max(sy, std::abs(y[c]));
+  }
+  const double u = x[2] * y[1] - y[2] * x[1];
+  const double v = x[0] * y[2] - y[0] * x[2];
+  const double w = x[1] * y[0] - y[1] * x[0];
+  if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+  const double det = u + v + w;
+  const double s = sx + sy;
+  if (!(std::abs(det) >= 0x1p-24 * s * s) || det == 0.0) return false;
+  const double inv_det = 1.0 / det;
+  const float t = float((u * z[0] + v * z[1] + w * z[2]) * r.dsz * inv_det);
+  if (!(t > tmin && t <= tmax) || std::isinf(t)) return false;
+  out = {t, float(v * inv_det), float(w * inv_det)};
+  return true;
+}
+
 // Returns true and fills `out` when the ray hits the triangle with tmin < t <= tmax (inclusive, so
-// that a closest-hit search can see a tie at the current best t and break it by index).
+// that a closest-hit search can see a tie at the current best t and break it by index). A float
+// filter rejects the triangles that certainly miss (two edge functions of opposite sign, each beyond
+// its error bound: Shewchuk's filtered predicates); the rest are decided in double precision by
+// intersect_watertight_exact, so the answer does not depend on which path, or which SIMD lane, ran.
 inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, const glm::vec3& p1,
                                  const glm::vec3& p2, float tmin, float tmax, TriangleHit& out) {
   const glm::vec3 a = p0 - r.origin;
@@ -46,25 +103,18 @@ inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, co
   const float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
   const float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
   const float cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];
-  float u = cx * by - cy * bx;
-  float v = ax * cy - ay * cx;
-  float w = bx * ay - by * ax;
-  // An edge function of exactly zero may be a rounding artefact: decide it in double precision.
-  if (u == 0.0f || v == 0.0f || w == 0.0f) {
-    u = float(double(cx) * double(by) - double(cy) * double(bx));
-    v = float(double(ax) * double(cy) - double(ay) * double(cx));
-    w = float(double(bx) * double(ay) - double(by) * double(ax));
-  }
-  if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
-  const float det = u + v + w;
-  if (det == 0.0f) return false;
-  const float az = r.sz * a[r.kz], bz = r.sz * b[r.kz], cz = r.sz * c[r.kz];
-  const float scaled_t = u * az + v * bz + w * cz;
-  const float inv_det = 1.0f / det;
-  const float t = scaled_t * inv_det;
-  if (!(t > tmin && t <= tmax)) return false;
-  out = {t, v * inv_det, w * inv_det};
-  return true;
+  const float u = cx * by - cy * bx;
+  const float v = ax * cy - ay * cx;
+  const float w = bx * ay - by * ax;
+  const float s = std::max(std::abs(ax), std::max(std::abs(bx), std::abs(cx))) +
+                  std::max(std::abs(ay), std::max(std::abs(by), std::abs(cy)));
+  const float z = std::max(std::abs(a[r.kz]), std::max(std::abs(b[r.kz]), std::abs(c[r.kz])));
+  const float bound = watertight_filter_bound(s, z);
+  // Written so that an overflowed (inf or NaN) filter never rejects: such a triangle goes to double.
+  const bool negative = u < -bound || v < -bound || w < -bound;
+  const bool positive = u > bound || v > bound || w > bound;
+  if (negative && positive) return false;
+  return intersect_watertight_exact(r, p0, p1, p2, tmin, tmax, out);
 }
 
 inline bool intersect_moller_trumbore(const Ray& ray, const glm::vec3& p0, const glm::vec3& p1,
@@ -82,18 +132,21 @@ inline bool intersect_moller_trumbore(const Ray& ray, const glm::vec3& p0, const
   const float v = glm::dot(ray.direction, q) * inv_det;
   if (v < 0.0f || u + v > 1.0f) return false;
   const float t = glm::dot(e2, q) * inv_det;
-  if (!(t > tmin && t <= tmax)) return false;
+  // The teaching option keeps its leaks, but never a hit at t <= tmin or at an infinite or NaN t.
+  if (!(t > tmin && t <= tmax) || std::isinf(t)) return false;
   out = {t, u, v};
   return true;
 }
 
 // Everything a traversal needs to test triangles of one mesh against one ray.
 struct TriangleTester {
-  const Ray& ray;
+  Ray ray;  // with effective_direction(): tiny components are zero for Möller–Trumbore too
   WatertightRay watertight;
   TriangleTest test;
 
-  TriangleTester(const Ray& r, TriangleTest kind) : ray(r), watertight(r), test(kind) {}
+  TriangleTester(const Ray& r, TriangleTest kind) : ray(r), watertight(r), test(kind) {
+    ray.direction = effective_direction(r.direction);
+  }
 
   bool operator()(const TriangleMesh& mesh, uint32_t triangle, float tmax, TriangleHit& out) const {
     const glm::uvec3 idx = mesh.triangles[triangle];
