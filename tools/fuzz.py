@@ -8,8 +8,9 @@ seed (and the libFuzzer harnesses of native/fuzz/). Each round builds a mesh of 
 of random triangles at a random scale and offset, a flattened sphere, a grid of shared edges, degenerate
 triangles, a shipped mesh under a random affine map) with random settings, traces rays of hostile kinds
 (near-surface origins, rays at vertices and edges, axis-parallel and denormal directions, tmax just past
-the hit), and checks the contract: aabb, octree and bvh return brute force's closest hit and any-hit
-answer, no hit has a t outside (tmin, tmax] or a non-finite t. Mutated OBJ files must load as a valid
+the hit), and checks the contract (README, "Exactness and its limits"): with the watertight test aabb,
+octree and bvh return brute force's closest hit and any-hit answer; with either test no hit has a t
+outside (tmin, tmax] or a non-finite t. Mutated OBJ files must load as a valid
 mesh or raise ValueError/OSError. A crash ends the process, which is a failure too. Every finding is
 printed with the seed and round that reproduce it, and the rounds' counts go to out/fuzz/summary.json.
 """
@@ -207,7 +208,8 @@ def trace_round(rng, round_, findings, counts):
         if len(bad):
             findings.add(round_, f"{name} ({test}) on {kind}: {len(bad)} hits with t outside ({tmin}, inf] or "
                                  f"not finite, e.g. t {hits.t[bad[0]]!r}")
-        if name == "none":
+        # Möller–Trumbore is the leaky teaching option: only its t range is part of the contract.
+        if name == "none" or test == "moller_trumbore":
             continue
         problem = compare(f"{name} ({test}, {settings}) on {kind}", hits, reference, kinds)
         if problem:
@@ -217,7 +219,7 @@ def trace_round(rng, round_, findings, counts):
             findings.add(round_, f"{name} ({test}) on {kind}: any-hit differs from brute force on "
                                  f"{int((occluded != reference_any.hit).sum())} rays")
     # tmax just past brute force's hit (the shadow ray to a light on the surface): one call per ray.
-    hit = np.flatnonzero(reference.hit & np.isfinite(reference.t))
+    hit = np.flatnonzero(reference.hit & np.isfinite(reference.t)) if test == "watertight" else []
     for i in rng.choice(hit, min(len(hit), 40), replace=False) if len(hit) else []:
         tmax = float(reference.t[i]) * (1 + float(rng.choice([1e-6, 1e-7, 0.0])))
         for name in ACCELERATED:
@@ -263,6 +265,8 @@ OBJ_TOKENS = ["nan", "inf", "-inf", "1e39", "-1e39", "1e-46", "a", "1,5", "", "0
 def mutate(text, rng):
     lines = text.split("\n")
     for _ in range(int(rng.integers(1, 4))):
+        if not lines:
+            lines = [""]
         op = rng.integers(0, 5)
         i = int(rng.integers(0, len(lines)))
         tokens = lines[i].split(" ")
