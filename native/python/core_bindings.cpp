@@ -41,8 +41,9 @@ TriangleMesh read_mesh_file(const std::string& path) {
 py::tuple mesh_to_arrays(const TriangleMesh& mesh) {
   py::array_t<float> v({py::ssize_t(mesh.vertices.size()), py::ssize_t(3)});
   py::array_t<uint32_t> t({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
-  std::copy_n(&mesh.vertices.data()->x, 3 * mesh.vertices.size(), v.mutable_data());
-  std::copy_n(&mesh.triangles.data()->x, 3 * mesh.triangles.size(), t.mutable_data());
+  // glm vectors are three packed scalars; an empty mesh has no data() to take a member of (UBSan).
+  std::copy_n(reinterpret_cast<const float*>(mesh.vertices.data()), 3 * mesh.vertices.size(), v.mutable_data());
+  std::copy_n(reinterpret_cast<const uint32_t*>(mesh.triangles.data()), 3 * mesh.triangles.size(), t.mutable_data());
   return py::make_tuple(v, t);
 }
 
