@@ -144,7 +144,8 @@ class Scene:
 
     One structure per mesh, in object space, shared by all its instances; commit() builds what is
     missing or stale (a moved instance costs no rebuild). Queries return world-space t and the
-    instance id of each hit.
+    instance id of each hit. Any threads may change, commit and query it at once: a query sees the
+    last commit() whole, except on a thread with changes of its own not committed yet (it raises).
     """
 
     __slots__ = ("native",)

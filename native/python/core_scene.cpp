@@ -67,9 +67,7 @@ void bind_scene(py::module_& m) {
           "add_mesh",
           [](Scene& s, py::handle vertices, py::handle triangles, py::handle normals) {
             return with_normals(vertices, triangles, normals, [&](MeshPtr m, std::vector<glm::vec3> corners) {
-              const uint32_t mesh = s.add_mesh(std::move(m));
-              if (!corners.empty()) s.set_shading_normals(mesh, std::move(corners));
-              return mesh;
+              return s.add_mesh(std::move(m), std::move(corners));
             });
           },
           py::arg("vertices"), py::arg("triangles"), py::arg("normals") = py::none())
@@ -78,8 +76,7 @@ void bind_scene(py::module_& m) {
           [](Scene& s, py::handle mesh, py::handle vertices, py::handle triangles, py::handle normals) {
             const uint32_t m = id_parameter(mesh, s.mesh_count(), "mesh");
             with_normals(vertices, triangles, normals, [&](MeshPtr replacement, std::vector<glm::vec3> corners) {
-              s.replace_mesh(m, std::move(replacement));
-              if (!corners.empty()) s.set_shading_normals(m, std::move(corners));
+              s.replace_mesh(m, std::move(replacement), std::move(corners));
               return m;
             });
           },

@@ -280,6 +280,10 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   const bool reports = !progress.is_none();
   if (reports && !PyCallable_Check(progress.ptr())) throw py::type_error("progress must be callable or None");
 
+  // Taken here, on the caller's thread (whose uncommitted changes it refuses), and held until the
+  // render ends: commits from other threads meanwhile change nothing it reads.
+  const SceneSnapshotPtr snapshot = scene.snapshot();
+
   RenderProgress state;
   std::optional<py::error_already_set> python_error;
   // A true answer, an exception or Ctrl-C cancels; the exception is raised once the render stopped.
@@ -302,7 +306,7 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
     bool done = false;
     std::thread worker([&] {
       try {
-        result = render(scene, camera, lights, materials, settings, &state);
+        result = render(*snapshot, camera, lights, materials, settings, &state);
       } catch (...) {
         failure = std::current_exception();
       }

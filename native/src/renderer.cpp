@@ -129,7 +129,7 @@ glm::vec3 terminator_point(const glm::vec3 corner[3], const glm::vec3* normals, 
 
 class Tracer {
  public:
-  Tracer(const Scene& scene, std::vector<PlacedInstance> instances, std::vector<PlacedLight> lights,
+  Tracer(const SceneSnapshot& scene, std::vector<PlacedInstance> instances, std::vector<PlacedLight> lights,
          const RenderSettings& settings)
       : scene_(scene), instances_(std::move(instances)), lights_(std::move(lights)), settings_(settings) {}
 
@@ -181,7 +181,7 @@ class Tracer {
                          bool past_face, const glm::vec3& v, RenderStats& stats, PixelRandom& random,
                          glm::vec3& specular) const;
 
-  const Scene& scene_;
+  const SceneSnapshot& scene_;
   std::vector<PlacedInstance> instances_;
   std::vector<PlacedLight> lights_;
   const RenderSettings& settings_;
@@ -391,7 +391,13 @@ RenderStats& RenderStats::operator+=(const RenderStats& o) {
   return *this;
 }
 
-RenderResult render(const Scene& scene, const CameraSettings& camera_settings, std::span<const Light> lights,
+RenderResult render(const Scene& scene, const CameraSettings& camera, std::span<const Light> lights,
+                    std::span<const Material> materials, const RenderSettings& settings, RenderProgress* progress) {
+  const SceneSnapshotPtr snapshot = scene.snapshot();  // every ray of the render sees this one state
+  return render(*snapshot, camera, lights, materials, settings, progress);
+}
+
+RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_settings, std::span<const Light> lights,
                     std::span<const Material> materials, const RenderSettings& settings, RenderProgress* progress) {
   const auto start = std::chrono::steady_clock::now();
   settings.validate();

@@ -1,17 +1,17 @@
 #include "raylab/scene.h"
 
 #include "raylab/batch.h"
-#include "raylab/box_intersection.h"
-#include "raylab/bvh.h"
-#include "raylab/bvh_build.h"
 
 #include <glm/gtc/matrix_access.hpp>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace raylab {
 
@@ -35,211 +35,103 @@ glm::mat4 checked_inverse(const glm::mat4& m) {
   return inverse;
 }
 
-// The world box of an object box under an affine transform, from its eight corners, widened by a
-// few ulp of its coordinates so that rounding never lets the top level cull a true hit.
-Bounds transform_bounds(const Bounds& b, const glm::mat4& m) {
-  Bounds out;
-  if (b.empty()) return out;
-  for (int corner = 0; corner < 8; ++corner) {
-    const glm::vec3 p((corner & 1) ? b.hi.x : b.lo.x, (corner & 2) ? b.hi.y : b.lo.y, (corner & 4) ? b.hi.z : b.lo.z);
-    out.extend(glm::vec3(m * glm::vec4(p, 1.0f)));
-  }
-  const glm::vec3 pad = (glm::max(glm::abs(out.lo), glm::abs(out.hi)) + out.extent()) * 0x1p-18f;
-  return {out.lo - pad, out.hi + pad};
+// Validated normals, shared with the snapshots; none: flat.
+std::shared_ptr<const std::vector<glm::vec3>> shared_normals(const TriangleMesh& mesh,
+                                                             std::vector<glm::vec3> corner_normals) {
+  if (corner_normals.empty()) return nullptr;
+  validate_shading_normals(mesh, corner_normals);
+  return std::make_shared<const std::vector<glm::vec3>>(std::move(corner_normals));
 }
 
 }  // namespace
 
 struct Scene::Impl {
-  struct MeshSlot {
-    MeshPtr mesh;
-    Bounds bounds;  // object space
-    std::unique_ptr<Structure> structure;  // null while stale
-    std::vector<glm::vec3> shading_normals;  // 3 per triangle, or empty: flat
+  // What the changes edit and commit() builds from. Copies share the meshes, structures and normals.
+  struct Edited {
+    BuildSettings settings;
+    uint64_t settings_generation = 0;  // of the last set_settings()
+    std::vector<SceneMesh> meshes;
+    std::vector<SceneInstance> instances;
+    uint64_t generation = 0;      // changes so far
+    uint64_t top_generation = 0;  // of the last change to an instance's world box
   };
-  struct InstanceSlot {
-    Instance instance;
-    glm::mat4 world_to_object;
+  // A thread whose changes the published snapshot does not include yet, and its last change.
+  struct Editor {
+    std::thread::id thread;
+    uint64_t generation;
   };
 
-  BuildSettings settings;
-  std::vector<MeshSlot> meshes;
-  std::vector<InstanceSlot> instances;
-  std::vector<Bounds> world_bounds;  // per instance, as of the last top-level build
-  BinaryBvh top;
-  bool top_stale = true;
-  double build_seconds = 0.0;
+  // Guards everything below; held only to read or write them, never during a build, so a query
+  // never waits for a commit().
+  mutable std::mutex mutex;
+  Edited edited;
+  SceneSnapshotPtr committed;  // null before the first commit()
+  std::vector<Editor> editors;
+  // One commit() at a time: the second builds on what the first published.
+  std::mutex commit_mutex;
 
-  MeshSlot& mesh_slot(uint32_t m) {
-    if (m >= meshes.size())
+  SceneMesh& mesh_slot(uint32_t m) {
+    if (m >= edited.meshes.size())
       throw std::invalid_argument("unknown mesh id " + std::to_string(m) + ": the scene has " +
-                                  std::to_string(meshes.size()) + " meshes");
-    return meshes[m];
+                                  std::to_string(edited.meshes.size()) + " meshes");
+    return edited.meshes[m];
   }
-  const MeshSlot& mesh_slot(uint32_t m) const { return const_cast<Impl*>(this)->mesh_slot(m); }
-  InstanceSlot& instance_slot(uint32_t i) {
-    if (i >= instances.size())
+  const SceneMesh& mesh_slot(uint32_t m) const { return const_cast<Impl*>(this)->mesh_slot(m); }
+  SceneInstance& instance_slot(uint32_t i) {
+    if (i >= edited.instances.size())
       throw std::invalid_argument("unknown instance id " + std::to_string(i) + ": the scene has " +
-                                  std::to_string(instances.size()) + " instances");
-    return instances[i];
+                                  std::to_string(edited.instances.size()) + " instances");
+    return edited.instances[i];
   }
+  const SceneInstance& instance_slot(uint32_t i) const { return const_cast<Impl*>(this)->instance_slot(i); }
 
-  bool stale() const {
-    if (top_stale) return true;
-    for (const MeshSlot& m : meshes)
-      if (!m.structure) return true;
-    return false;
-  }
-  void require_committed() const {
-    if (stale()) throw std::logic_error("scene changed since the last commit(): call commit() before querying");
-  }
-
-  Ray to_object(const InstanceSlot& inst, const Ray& ray, float tmax) const {
-    Ray r;
-    r.origin = glm::vec3(inst.world_to_object * glm::vec4(ray.origin, 1.0f));
-    // Not normalised: the object-space ray keeps the world ray's parameter t.
-    r.direction = glm::mat3(inst.world_to_object) * ray.direction;
-    r.tmin = ray.tmin;
-    r.tmax = tmax;
-    return r;
-  }
-
-  // `none` and `aabb` are VRT's models: every object meets every ray and its own structure decides
-  // (brute force tests every triangle of every object; the AABB ignores the ray or not). A top level
-  // over the instances would be acceleration those two do not have.
-  bool uses_top_level() const {
-    return settings.kind == StructureKind::Octree || settings.kind == StructureKind::Bvh;
-  }
-
-  // One traversal of the top level for both queries. `visit(instance, tmax)` queries one instance
-  // and returns the new far limit (any-hit returns -inf to stop).
-  template <class Recorder, class Visit>
-  void traverse(const Ray& ray, Recorder& record, float& tmax, Visit visit) const {
-    struct Entry {
-      uint32_t node;
-      int depth;
-      float t_entry;
-    };
-    record.ray();
-    if (!uses_top_level()) {
-      for (uint32_t k = 0; k < instances.size() && tmax >= ray.tmin; ++k) tmax = visit(k, tmax);
-      return;
-    }
-    if (top.nodes.empty()) return;
-    const BoxRay box_ray(ray);
-    float t_root = ray.tmin;
-    const bool root_hit = intersect_box(top.nodes[0].bounds(), box_ray, ray.tmax, t_root);
-    record.box(0, top.nodes[0].bounds(), 0, root_hit, t_root);
-    if (!root_hit) return;
-    Entry stack[Bvh::kStackSize];
-    int size = 0;
-    stack[size++] = {0, 0, t_root};
-    while (size > 0) {
-      const Entry e = stack[--size];
-      if (e.t_entry > box_limit(tmax)) continue;
-      const BvhNode& node = top.nodes[e.node];
-      record.node(e.node, e.depth);
-      if (node.leaf()) {
-        for (uint32_t k = 0; k < node.count && tmax >= ray.tmin; ++k) tmax = visit(top.prims[node.index + k], tmax);
-        if (tmax < ray.tmin) return;
-        continue;
+  // Counts one change by the calling thread (with `mutex` held); `moves_boxes` when it changes an
+  // instance's world box, so that the top level is rebuilt.
+  void changed(bool moves_boxes) {
+    const uint64_t generation = ++edited.generation;
+    if (moves_boxes) edited.top_generation = generation;
+    const std::thread::id self = std::this_thread::get_id();
+    for (Editor& e : editors)
+      if (e.thread == self) {
+        e.generation = generation;
+        return;
       }
-      float t[2] = {ray.tmin, ray.tmin};
-      bool h[2];
-      for (uint32_t c = 0; c < 2; ++c) {
-        const BvhNode& child = top.nodes[node.index + c];
-        h[c] = intersect_box(child.bounds(), box_ray, box_limit(tmax), t[c]);
-        record.box(node.index + c, child.bounds(), e.depth + 1, h[c], t[c]);
-      }
-      const uint32_t near = (h[0] && h[1] && t[1] < t[0]) ? 1 : 0;
-      for (uint32_t c : {1 - near, near})
-        if (h[c]) stack[size++] = {node.index + c, e.depth + 1, t[c]};
-    }
-  }
-
-  // Runs a query on one instance's structure, adding its work (not its ray count) to the record;
-  // `entered` becomes true when the object's structure did not ignore the ray.
-  template <class Recorder, class Query>
-  static auto counted(Recorder& record, bool& entered, Query query) {
-    if constexpr (Recorder::kActive) {
-      TraversalStats s;
-      const auto result = query(&s);
-      if (s.rays_ignored == 0) entered = true;
-      record.stats.box_tests += s.box_tests;
-      record.stats.triangle_tests += s.triangle_tests;
-      record.stats.nodes_visited += s.nodes_visited;
-      return result;
-    } else {
-      return query(nullptr);
-    }
-  }
-
-  template <class Recorder>
-  bool closest(const Ray& ray, Hit& hit, Recorder& record) const {
-    Hit best = initial_hit(ray);
-    float tmax = ray.tmax;
-    bool entered = false;
-    traverse(ray, record, tmax, [&](uint32_t k, float limit) {
-      const InstanceSlot& inst = instances[k];
-      const Structure& s = *meshes[inst.instance.mesh].structure;
-      const Ray r = to_object(inst, ray, limit);
-      Hit h;
-      const bool found = counted(record, entered, [&](TraversalStats* st) { return st ? s.closest(r, h, *st) : s.closest(r, h); });
-      // Equal t across instances: the lower instance index wins, whatever the visiting order.
-      if (found && (h.t < best.t || (h.t == best.t && k < best.instance))) {
-        best = h;
-        best.instance = k;
-      }
-      return best.t;
-    });
-    if (!entered) record.ignored();
-    if (!best.valid()) return false;
-    hit = best;
-    return true;
-  }
-
-  template <class Recorder>
-  bool any(const Ray& ray, Recorder& record) const {
-    bool found = false;
-    float tmax = ray.tmax;
-    bool entered = false;
-    traverse(ray, record, tmax, [&](uint32_t k, float limit) {
-      const InstanceSlot& inst = instances[k];
-      const Structure& s = *meshes[inst.instance.mesh].structure;
-      const Ray r = to_object(inst, ray, limit);
-      found = counted(record, entered, [&](TraversalStats* st) { return st ? s.any(r, *st) : s.any(r); });
-      return found ? -kInfinity : limit;
-    });
-    if (!entered) record.ignored();
-    return found;
+    editors.push_back({self, generation});
   }
 };
 
 Scene::Scene(const BuildSettings& settings) : impl_(std::make_unique<Impl>()) {
   settings.validate();
-  impl_->settings = settings;
+  impl_->edited.settings = settings;
 }
 Scene::~Scene() = default;
 Scene::Scene(Scene&&) noexcept = default;
 Scene& Scene::operator=(Scene&&) noexcept = default;
 
-uint32_t Scene::add_mesh(MeshPtr mesh) {
+uint32_t Scene::add_mesh(MeshPtr mesh, std::vector<glm::vec3> corner_normals) {
   if (!mesh) throw std::invalid_argument("mesh is null");
   mesh->validate();
   const Bounds bounds = mesh->bounds();
-  impl_->meshes.push_back({std::move(mesh), bounds, nullptr, {}});
-  return uint32_t(impl_->meshes.size() - 1);
+  auto normals = shared_normals(*mesh, std::move(corner_normals));
+  std::lock_guard lock(impl_->mutex);
+  impl_->edited.meshes.push_back({std::move(mesh), bounds, nullptr, std::move(normals)});
+  impl_->changed(false);
+  return uint32_t(impl_->edited.meshes.size() - 1);
 }
 
-void Scene::replace_mesh(uint32_t mesh, MeshPtr replacement) {
-  Impl::MeshSlot& slot = impl_->mesh_slot(mesh);
+void Scene::replace_mesh(uint32_t mesh, MeshPtr replacement, std::vector<glm::vec3> corner_normals) {
+  {
+    std::lock_guard lock(impl_->mutex);
+    impl_->mesh_slot(mesh);  // an unknown id is the first error to report
+  }
   if (!replacement) throw std::invalid_argument("mesh is null");
   replacement->validate();
-  slot.bounds = replacement->bounds();
-  slot.mesh = std::move(replacement);
-  slot.structure.reset();
-  slot.shading_normals.clear();  // they belonged to the old triangles
-  impl_->top_stale = true;  // its instances' world boxes changed
+  const Bounds bounds = replacement->bounds();
+  // Normals not given: flat, as the old ones belonged to the old triangles.
+  auto normals = shared_normals(*replacement, std::move(corner_normals));
+  std::lock_guard lock(impl_->mutex);
+  impl_->mesh_slot(mesh) = {std::move(replacement), bounds, nullptr, std::move(normals)};
+  impl_->changed(true);  // its instances' world boxes changed
 }
 
 void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec3> corner_normals) {
@@ -253,116 +145,163 @@ void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec
 }
 
 void Scene::set_shading_normals(uint32_t mesh, std::vector<glm::vec3> corner_normals) {
-  Impl::MeshSlot& slot = impl_->mesh_slot(mesh);
-  validate_shading_normals(*slot.mesh, corner_normals);
-  slot.shading_normals = std::move(corner_normals);
+  MeshPtr target = this->mesh(mesh);
+  validate_shading_normals(*target, corner_normals);
+  auto normals = std::make_shared<const std::vector<glm::vec3>>(std::move(corner_normals));
+  std::lock_guard lock(impl_->mutex);
+  SceneMesh& slot = impl_->mesh_slot(mesh);
+  if (slot.mesh != target) throw std::invalid_argument("shading normals: mesh " + std::to_string(mesh) +
+                                                       " was replaced while they were checked");
+  slot.shading_normals = std::move(normals);
+  impl_->changed(false);
 }
 
-const std::vector<glm::vec3>* Scene::shading_normals(uint32_t mesh) const {
-  const Impl::MeshSlot& slot = impl_->mesh_slot(mesh);
-  return slot.shading_normals.empty() ? nullptr : &slot.shading_normals;
+std::shared_ptr<const std::vector<glm::vec3>> Scene::shading_normals(uint32_t mesh) const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->mesh_slot(mesh).shading_normals;
 }
 
 uint32_t Scene::add_instance(uint32_t mesh, const glm::mat4& transform, uint32_t material) {
+  std::lock_guard lock(impl_->mutex);
   impl_->mesh_slot(mesh);
   const glm::mat4 inverse = checked_inverse(transform);
-  impl_->instances.push_back({Instance{mesh, transform, material}, inverse});
-  impl_->top_stale = true;
-  return uint32_t(impl_->instances.size() - 1);
+  impl_->edited.instances.push_back({Instance{mesh, transform, material}, inverse});
+  impl_->changed(true);
+  return uint32_t(impl_->edited.instances.size() - 1);
 }
 
 void Scene::set_transform(uint32_t instance, const glm::mat4& transform) {
-  Impl::InstanceSlot& slot = impl_->instance_slot(instance);
+  std::lock_guard lock(impl_->mutex);
+  SceneInstance& slot = impl_->instance_slot(instance);
   const glm::mat4 inverse = checked_inverse(transform);
   slot.instance.transform = transform;
   slot.world_to_object = inverse;
-  impl_->top_stale = true;
+  impl_->changed(true);
 }
 
 void Scene::set_settings(const BuildSettings& settings) {
   settings.validate();
-  impl_->settings = settings;
-  for (Impl::MeshSlot& m : impl_->meshes) m.structure.reset();
-  impl_->top_stale = true;
+  std::lock_guard lock(impl_->mutex);
+  impl_->edited.settings = settings;
+  for (SceneMesh& m : impl_->edited.meshes) m.structure.reset();
+  impl_->changed(true);
+  impl_->edited.settings_generation = impl_->edited.generation;
 }
 
 void Scene::commit() {
+  std::lock_guard committing(impl_->commit_mutex);
   const auto start = std::chrono::steady_clock::now();
+  // The state as it is now; changes made during the build go to the next commit.
+  Impl::Edited state;
+  SceneSnapshotPtr previous;
+  {
+    std::lock_guard lock(impl_->mutex);
+    state = impl_->edited;
+    previous = impl_->committed;
+  }
   // Stale meshes build side by side (each build is parallel inside too): many small meshes would
   // otherwise leave cores idle.
-  tbb::parallel_for(size_t(0), impl_->meshes.size(), [&](size_t i) {
-    Impl::MeshSlot& m = impl_->meshes[i];
-    if (!m.structure) m.structure = build_structure(m.mesh, impl_->settings);
+  tbb::parallel_for(size_t(0), state.meshes.size(), [&](size_t i) {
+    SceneMesh& m = state.meshes[i];
+    if (!m.structure) m.structure = build_structure(m.mesh, state.settings);
   });
-  if (impl_->top_stale) {
-    impl_->world_bounds.resize(impl_->instances.size());
-    for (size_t i = 0; i < impl_->instances.size(); ++i) {
-      const Impl::InstanceSlot& inst = impl_->instances[i];
-      impl_->world_bounds[i] = transform_bounds(impl_->meshes[inst.instance.mesh].bounds, inst.instance.transform);
+  std::shared_ptr<const BinaryBvh> top;
+  if (previous && state.top_generation <= previous->generation()) {
+    top = previous->top_;
+  } else {
+    std::vector<Bounds> world_bounds(state.instances.size());
+    for (size_t i = 0; i < state.instances.size(); ++i) {
+      const SceneInstance& inst = state.instances[i];
+      world_bounds[i] = transform_bounds(state.meshes[inst.instance.mesh].bounds, inst.instance.transform);
     }
     // One instance per leaf: entering an instance costs a whole structure query.
-    impl_->top = build_binary_bvh(impl_->world_bounds, 1);
-    impl_->top_stale = false;
+    top = std::make_shared<const BinaryBvh>(build_binary_bvh(world_bounds, 1));
   }
-  impl_->build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const uint64_t generation = state.generation;
+  auto snapshot = std::make_shared<const SceneSnapshot>(state.settings, std::move(state.meshes),
+                                                        std::move(state.instances), std::move(top), generation, seconds);
+
+  std::lock_guard lock(impl_->mutex);
+  // The new structures stay for later commits, unless their mesh or the settings changed meanwhile.
+  Impl::Edited& edited = impl_->edited;
+  if (edited.settings_generation == state.settings_generation)
+    for (uint32_t m = 0; m < snapshot->mesh_count(); ++m) {
+      SceneMesh& slot = edited.meshes[m];
+      if (!slot.structure && slot.mesh == snapshot->meshes_[m].mesh) slot.structure = snapshot->meshes_[m].structure;
+    }
+  impl_->committed = std::move(snapshot);
+  std::erase_if(impl_->editors, [&](const Impl::Editor& e) { return e.generation <= generation; });
+}
+
+SceneSnapshotPtr Scene::snapshot() const {
+  std::lock_guard lock(impl_->mutex);
+  const std::thread::id self = std::this_thread::get_id();
+  const bool changed_here = std::any_of(impl_->editors.begin(), impl_->editors.end(),
+                                        [&](const Impl::Editor& e) { return e.thread == self; });
+  if (!impl_->committed || changed_here)
+    throw std::logic_error("scene changed since the last commit(): call commit() before querying");
+  return impl_->committed;
 }
 
 bool Scene::closest(const Ray& ray, Hit& hit, TraversalStats* stats) const {
-  impl_->require_committed();
-  if (stats) {
-    StatsRecord record{*stats};
-    return impl_->closest(ray, hit, record);
-  }
-  NoRecord record;
-  return impl_->closest(ray, hit, record);
+  return snapshot()->closest(ray, hit, stats);
 }
 
-bool Scene::any(const Ray& ray, TraversalStats* stats) const {
-  impl_->require_committed();
-  if (stats) {
-    StatsRecord record{*stats};
-    return impl_->any(ray, record);
-  }
-  NoRecord record;
-  return impl_->any(ray, record);
+bool Scene::any(const Ray& ray, TraversalStats* stats) const { return snapshot()->any(ray, stats); }
+
+size_t Scene::mesh_count() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->edited.meshes.size();
 }
 
-size_t Scene::mesh_count() const { return impl_->meshes.size(); }
-size_t Scene::instance_count() const { return impl_->instances.size(); }
-const Instance& Scene::instance(uint32_t i) const { return impl_->instance_slot(i).instance; }
-const TriangleMesh& Scene::mesh(uint32_t m) const { return *impl_->mesh_slot(m).mesh; }
+size_t Scene::instance_count() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->edited.instances.size();
+}
+
+Instance Scene::instance(uint32_t i) const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->instance_slot(i).instance;
+}
+
+MeshPtr Scene::mesh(uint32_t m) const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->mesh_slot(m).mesh;
+}
 
 const Structure& Scene::structure(uint32_t m) const {
-  const Impl::MeshSlot& slot = impl_->mesh_slot(m);
+  std::lock_guard lock(impl_->mutex);
+  const SceneMesh& slot = impl_->mesh_slot(m);
   if (!slot.structure) throw std::logic_error("mesh " + std::to_string(m) + " has no structure before commit()");
   return *slot.structure;
 }
 
 Bounds Scene::bounds() const {
+  std::lock_guard lock(impl_->mutex);
   Bounds b;
-  for (const Impl::InstanceSlot& inst : impl_->instances)
-    b.extend(transform_bounds(impl_->meshes[inst.instance.mesh].bounds, inst.instance.transform));
+  for (const SceneInstance& inst : impl_->edited.instances)
+    b.extend(transform_bounds(impl_->edited.meshes[inst.instance.mesh].bounds, inst.instance.transform));
   return b;
 }
 
 size_t Scene::memory_bytes() const {
-  size_t bytes = impl_->top.nodes.capacity() * sizeof(BvhNode) + impl_->top.prims.capacity() * sizeof(uint32_t);
-  for (const Impl::MeshSlot& m : impl_->meshes)
-    if (m.structure) bytes += m.structure->memory_bytes();
-  return bytes;
+  std::lock_guard lock(impl_->mutex);
+  return impl_->committed ? impl_->committed->memory_bytes() : 0;
 }
 
-double Scene::build_seconds() const { return impl_->build_seconds; }
+double Scene::build_seconds() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->committed ? impl_->committed->build_seconds() : 0.0;
+}
 
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats) {
-  if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) { scene.closest(rays[i], hits[i], st); });
+  intersect_closest(*scene.snapshot(), rays, hits, stats);
 }
 
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
                    TraversalStats* stats) {
-  if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); });
+  intersect_any(*scene.snapshot(), rays, occluded, stats);
 }
 
 }  // namespace raylab

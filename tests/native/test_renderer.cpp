@@ -9,8 +9,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <limits>
 #include <random>
+#include <thread>
 
 using namespace raylab;
 
@@ -390,4 +392,35 @@ TEST(ShadingNormals, DoNotLetLightThroughTheFaceFromBehind) {
   f.settings.shadows = true;
   ASSERT_TRUE(f.settings.shadow_terminator);
   EXPECT_EQ(pixel(f.run(), 16, 16), glm::vec3(0.0f));
+}
+
+// A render reads one snapshot from start to end: while another thread moves the occluder back and
+// forth and commits, every render is pixel for pixel one of the two states' renders.
+TEST(Renderer, RendersDuringCommitsShowOneStateWhole) {
+  FloorScene f;
+  f.add_occluder();  // instance 1: its shadow falls on the floor's centre
+  const glm::mat4 away = glm::translate(glm::mat4(1.0f), glm::vec3(100, 0, 0));
+  const RenderResult shadowed = f.run();
+  f.scene.set_transform(1, away);
+  const RenderResult lit = f.run();
+  ASSERT_NE(shadowed.image, lit.image);
+  const auto same = [](const RenderResult& a, const RenderResult& b) {
+    return a.image == b.image && a.instance == b.instance && a.distance == b.distance;
+  };
+
+  std::atomic<bool> done{false};
+  int mixed = 0;
+  std::thread renderer([&] {
+    for (int i = 0; i < 10; ++i) {
+      const RenderResult r = render(f.scene, f.camera, f.lights, f.materials, f.settings);
+      if (!same(r, shadowed) && !same(r, lit)) ++mixed;
+    }
+    done.store(true);
+  });
+  for (int k = 0; !done.load(); ++k) {
+    f.scene.set_transform(1, k % 2 == 0 ? glm::mat4(1.0f) : away);
+    f.scene.commit();
+  }
+  renderer.join();
+  EXPECT_EQ(mixed, 0);
 }

@@ -4,8 +4,13 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <span>
+#include <thread>
 
 using namespace raylab;
 
@@ -240,4 +245,222 @@ TEST(Scene, RaysIgnoredAreRaysThatEnterNoObject) {
       EXPECT_EQ(stats.rays_ignored, 2u) << structure_kind_name(kind);
     }
   }
+}
+
+// Threads: one thread changes the scene and commits while others query. Every answer must be the
+// brute-force answer of one committed state, the old or the new, never a mix (nor a crash).
+namespace {
+
+constexpr int kAdditions = 200;  // instances added one commit at a time
+
+// Rays along +z from z = -10 through each centre shifted by each (dx, dy), `copies` times over: a
+// batch long enough for commits to overlap it.
+std::vector<Ray> rays_through(std::span<const glm::vec2> centres, std::span<const glm::vec2> offsets,
+                              int copies = 300) {
+  std::vector<Ray> rays;
+  for (int copy = 0; copy < copies; ++copy)
+    for (const glm::vec2 c : centres)
+      for (const glm::vec2 o : offsets) rays.push_back(ray_from({c.x + o.x, c.y + o.y, -10}, {0, 0, 1}));
+  return rays;
+}
+
+// Well inside the silhouette of a sphere of radius 0.5: no ray grazes either state's spheres.
+const std::vector<glm::vec2> kNearAxis = {{-0.25f, -0.2f}, {0, 0}, {0.25f, 0.1f}, {0.1f, 0.3f}};
+
+struct Placed {
+  MeshPtr mesh;
+  glm::mat4 transform;
+};
+
+// The closest hits over world-space copies of the placed meshes, each brute-forced.
+std::vector<Hit> brute_force(const std::vector<Placed>& placed, std::span<const Ray> rays) {
+  BuildSettings brute;
+  brute.kind = StructureKind::None;
+  std::vector<Hit> best(rays.size());
+  for (uint32_t k = 0; k < placed.size(); ++k) {
+    auto moved = std::make_shared<TriangleMesh>(*placed[k].mesh);
+    for (glm::vec3& v : moved->vertices) v = glm::vec3(placed[k].transform * glm::vec4(v, 1.0f));
+    const std::unique_ptr<Structure> s = build_structure(moved, brute);
+    for (size_t i = 0; i < rays.size(); ++i) {
+      Hit h;
+      if (s->closest(rays[i], h) && h.t < best[i].t) {
+        best[i] = h;
+        best[i].instance = k;
+      }
+    }
+  }
+  return best;
+}
+
+bool same_hits(std::span<const Hit> got, std::span<const Hit> expected) {
+  for (size_t i = 0; i < got.size(); ++i) {
+    if (got[i].valid() != expected[i].valid()) return false;
+    if (got[i].valid() && (got[i].instance != expected[i].instance ||
+                           std::abs(got[i].t - expected[i].t) > 1e-5f * expected[i].t))
+      return false;
+  }
+  return true;
+}
+
+bool same_occlusion(std::span<const uint8_t> got, std::span<const Hit> expected) {
+  for (size_t i = 0; i < got.size(); ++i)
+    if (bool(got[i]) != expected[i].valid()) return false;
+  return true;
+}
+
+// One closest-hit batch and one any-hit batch: true when each is the answer of one of `states`.
+bool answers_from_one_state(const Scene& scene, std::span<const Ray> rays,
+                            const std::vector<std::vector<Hit>>& states) {
+  std::vector<Hit> hits(rays.size());
+  std::vector<uint8_t> occluded(rays.size());
+  intersect_closest(scene, rays, hits, nullptr);
+  intersect_any(scene, rays, occluded, nullptr);
+  const auto any_state = [&](auto same) { return std::any_of(states.begin(), states.end(), same); };
+  return any_state([&](const std::vector<Hit>& s) { return same_hits(hits, s); }) &&
+         any_state([&](const std::vector<Hit>& s) { return same_occlusion(occluded, s); });
+}
+
+// Two threads run query() `rounds` times each while this one runs change(k) for k = 0, 1, ... until
+// they are done (or `most_changes` ran); returns how many queries failed (false or an exception).
+template <class Change, class Query>
+int queries_failed_during(Change change, Query query, int most_changes = std::numeric_limits<int>::max()) {
+  constexpr int rounds = 20;
+  std::atomic<int> readers_done{0}, failed{0};
+  std::vector<std::thread> readers;
+  for (int r = 0; r < 2; ++r)
+    readers.emplace_back([&] {
+      for (int round = 0; round < rounds; ++round) {
+        try {
+          if (!query()) ++failed;
+        } catch (...) {
+          ++failed;
+        }
+      }
+      ++readers_done;
+    });
+  for (int k = 0; k < most_changes && readers_done.load() < 2; ++k) change(k);
+  for (std::thread& t : readers) t.join();
+  return failed.load();
+}
+
+}  // namespace
+
+TEST(SceneThreads, QueriesDuringMovesAndCommitsSeeTheOldOrTheNewStateWhole) {
+  const MeshPtr sphere = load("sphere.obj");
+  const glm::mat4 old_place = glm::mat4(1.0f), new_place = translation(100, 0, 0), still = translation(3, 0, 0);
+  Scene scene;
+  const uint32_t m = scene.add_mesh(sphere);
+  scene.add_instance(m, old_place);
+  scene.add_instance(m, still);
+  scene.commit();
+  const std::vector<glm::vec2> centres = {{0, 0}, {100, 0}, {3, 0}};
+  const std::vector<Ray> rays = rays_through(centres, kNearAxis);
+  const std::vector<std::vector<Hit>> states = {brute_force({{sphere, old_place}, {sphere, still}}, rays),
+                                                brute_force({{sphere, new_place}, {sphere, still}}, rays)};
+  ASSERT_FALSE(same_hits(states[0], states[1]));
+  ASSERT_TRUE(answers_from_one_state(scene, rays, {states[0]}));
+
+  EXPECT_EQ(queries_failed_during(
+                [&](int k) {
+                  scene.set_transform(0, k % 2 == 0 ? new_place : old_place);
+                  scene.commit();
+                },
+                [&] { return answers_from_one_state(scene, rays, states); }),
+            0);
+}
+
+TEST(SceneThreads, QueriesDuringMeshReplacementsSeeTheOldOrTheNewStateWhole) {
+  const MeshPtr sphere = load("sphere.obj");
+  auto half = std::make_shared<TriangleMesh>(*sphere);
+  for (glm::vec3& v : half->vertices) v *= 0.5f;  // t along the axis: 9.5 instead of 9
+  const MeshPtr small = half;
+  Scene scene;
+  const uint32_t m = scene.add_mesh(sphere);
+  const uint32_t other = scene.add_mesh(sphere);
+  scene.add_instance(m, glm::mat4(1.0f));
+  scene.add_instance(other, translation(3, 0, 0));
+  scene.commit();
+  std::vector<glm::vec2> offsets = kNearAxis;
+  offsets.push_back({0.7f, 0});  // meets the old sphere only
+  const std::vector<glm::vec2> centres = {{0, 0}, {3, 0}};
+  const std::vector<Ray> rays = rays_through(centres, offsets);
+  const glm::mat4 identity(1.0f);
+  const std::vector<std::vector<Hit>> states = {
+      brute_force({{sphere, identity}, {sphere, translation(3, 0, 0)}}, rays),
+      brute_force({{small, identity}, {sphere, translation(3, 0, 0)}}, rays)};
+  ASSERT_FALSE(same_hits(states[0], states[1]));
+  ASSERT_TRUE(answers_from_one_state(scene, rays, {states[0]}));
+
+  EXPECT_EQ(queries_failed_during(
+                [&](int k) {
+                  scene.replace_mesh(m, k % 2 == 0 ? small : sphere);
+                  scene.commit();
+                },
+                [&] { return answers_from_one_state(scene, rays, states); }),
+            0);
+}
+
+TEST(SceneThreads, QueriesDuringAddedInstancesSeeTheFirstNOfOneState) {
+  const MeshPtr sphere = load("sphere.obj");
+  Scene scene;
+  const uint32_t m = scene.add_mesh(sphere);
+  scene.add_instance(m, glm::mat4(1.0f));
+  scene.commit();
+  // Instance k at x = 10 k: its rays meet it alone, so each is brute-forced on its own rays.
+  std::vector<Placed> placed;
+  std::vector<glm::vec2> centres;
+  for (int k = 0; k <= kAdditions; ++k) {
+    placed.push_back({sphere, translation(10.0f * float(k), 0, 0)});
+    centres.push_back({10.0f * float(k), 0});
+  }
+  const std::vector<glm::vec2> offset = {{0.1f, -0.2f}};
+  constexpr int copies = 20;
+  const std::vector<Ray> rays = rays_through(centres, offset, copies);
+  std::vector<Hit> all(rays.size());
+  for (size_t k = 0; k < placed.size(); ++k) {
+    std::vector<Ray> mine;
+    for (size_t i = k; i < rays.size(); i += placed.size()) mine.push_back(rays[i]);
+    const std::vector<Hit> hits = brute_force({placed[k]}, mine);
+    for (size_t j = 0; j < mine.size(); ++j) {
+      all[k + j * placed.size()] = hits[j];
+      all[k + j * placed.size()].instance = uint32_t(k);
+    }
+  }
+  std::vector<std::vector<Hit>> states;  // states[n]: instances 0 to n
+  for (size_t n = 0; n < placed.size(); ++n) {
+    states.push_back(all);
+    for (size_t i = 0; i < rays.size(); ++i)
+      if (i % placed.size() > n) states.back()[i] = Hit{};
+  }
+
+  EXPECT_EQ(queries_failed_during(
+                [&](int k) {
+                  scene.add_instance(m, placed[size_t(k) + 1].transform);
+                  scene.commit();
+                },
+                [&] { return answers_from_one_state(scene, rays, states); }, kAdditions),
+            0);
+  EXPECT_TRUE(answers_from_one_state(scene, rays, {states[scene.instance_count() - 1]}));
+}
+
+TEST(SceneThreads, AThreadThatChangedTheSceneMustCommitOthersSeeTheLastCommit) {
+  Scene scene;
+  scene.add_instance(scene.add_mesh(unit_square()), glm::mat4(1.0f));
+  scene.commit();
+  const SceneSnapshotPtr before = scene.snapshot();
+  scene.set_transform(0, translation(0, 0, -4));  // not committed
+  const Ray ray = ray_from({0.5f, 0.5f, 1}, {0, 0, -1});
+  Hit h;
+  EXPECT_THROW(scene.closest(ray, h), std::logic_error);  // it would not see its own change
+  float t_elsewhere = 0.0f;
+  std::thread([&] {
+    Hit other;
+    if (scene.closest(ray, other)) t_elsewhere = other.t;
+  }).join();
+  EXPECT_FLOAT_EQ(t_elsewhere, 1.0f);  // the last commit
+  scene.commit();
+  ASSERT_TRUE(scene.closest(ray, h));
+  EXPECT_FLOAT_EQ(h.t, 5.0f);
+  ASSERT_TRUE(before->closest(ray, h));  // a snapshot held keeps its state
+  EXPECT_FLOAT_EQ(h.t, 1.0f);
 }

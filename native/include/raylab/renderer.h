@@ -74,8 +74,12 @@ struct RenderResult {
 };
 
 // Renders `scene` (committed) as seen by `camera`. Throws std::invalid_argument on bad settings,
-// lights, materials, or an instance whose material index is out of range.
+// lights, materials, or an instance whose material index is out of range. The whole render reads
+// one snapshot, taken when it starts: commits made meanwhile show in the next render.
 RenderResult render(const Scene& scene, const CameraSettings& camera, std::span<const Light> lights,
+                    std::span<const Material> materials, const RenderSettings& settings,
+                    RenderProgress* progress = nullptr);
+RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera, std::span<const Light> lights,
                     std::span<const Material> materials, const RenderSettings& settings,
                     RenderProgress* progress = nullptr);
 

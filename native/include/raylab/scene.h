@@ -2,22 +2,23 @@
 // instances. One structure per mesh, in object space, shared by all its instances; rays are moved
 // into object space. Only what changed is rebuilt: a new transform rebuilds the top level alone (a
 // BVH over instance boxes, cheap), a replaced mesh rebuilds its own structure alone.
+//
+// Threads: changes and queries may come from any threads. Changes edit a private state; commit()
+// builds from it an immutable SceneSnapshot and swaps it in under a short lock. A query takes the
+// current snapshot once (a shared_ptr) and keeps it to the end, so it sees the old or the new
+// committed state whole and never waits for a build; a second commit() waits for the first.
 #pragma once
 
+#include "raylab/scene_snapshot.h"
 #include "raylab/structure.h"
 
 #include <glm/mat4x4.hpp>
 
 #include <memory>
+#include <span>
 #include <vector>
 
 namespace raylab {
-
-struct Instance {
-  uint32_t mesh = 0;
-  glm::mat4 transform{1.0f};  // object to world
-  uint32_t material = 0;      // an index the renderer interprets
-};
 
 class Scene {
  public:
@@ -26,35 +27,40 @@ class Scene {
   Scene(Scene&&) noexcept;
   Scene& operator=(Scene&&) noexcept;
 
-  uint32_t add_mesh(MeshPtr mesh);  // validates; returns the mesh id
-  void replace_mesh(uint32_t mesh, MeshPtr replacement);  // drops the mesh's shading normals
   // Smooth shading for the renderer: 3 object-space normals per triangle (its corners, in winding
-  // order), kept beside the mesh so the structures never see them. Validated as below.
+  // order), kept beside the mesh so the structures never see them; empty: flat. Validated as below.
+  uint32_t add_mesh(MeshPtr mesh, std::vector<glm::vec3> corner_normals = {});  // returns the mesh id
+  void replace_mesh(uint32_t mesh, MeshPtr replacement, std::vector<glm::vec3> corner_normals = {});
   void set_shading_normals(uint32_t mesh, std::vector<glm::vec3> corner_normals);
-  const std::vector<glm::vec3>* shading_normals(uint32_t mesh) const;  // null: flat (face normals)
   // Throws std::invalid_argument on an unknown mesh id or a singular / non-finite transform.
   uint32_t add_instance(uint32_t mesh, const glm::mat4& transform, uint32_t material = 0);
   void set_transform(uint32_t instance, const glm::mat4& transform);
   void set_settings(const BuildSettings& settings);  // rebuilds every mesh structure on commit()
 
-  // Builds what is missing or stale: per-mesh structures, then the top level. A query on a scene
-  // changed since the last commit() throws std::logic_error rather than answer from stale data.
+  // Builds what is missing or stale (per-mesh structures, then the top level) and publishes it.
   void commit();
 
-  // World-space queries. hit.instance is set; hit.t is in the world ray's parameter.
-  // stats.rays_ignored counts rays that entered no object (every object's box missed). With `none`
-  // and `aabb` every object meets every ray, as in VRT; octree and bvh scenes add a top level.
+  // The state of the last commit(), for as long as it is held. Throws std::logic_error before the
+  // first commit() and on the thread that changed the scene since the last one: that query would
+  // answer from stale data. Other threads get the last committed state.
+  SceneSnapshotPtr snapshot() const;
+
+  // Queries on snapshot(); see SceneSnapshot. Many rays: take the snapshot once.
   bool closest(const Ray& ray, Hit& hit, TraversalStats* stats = nullptr) const;
   bool any(const Ray& ray, TraversalStats* stats = nullptr) const;
 
+  // The edited state, with changes not committed yet.
   size_t mesh_count() const;
   size_t instance_count() const;
-  const Instance& instance(uint32_t i) const;
-  const TriangleMesh& mesh(uint32_t m) const;
-  const Structure& structure(uint32_t m) const;  // after commit()
+  Instance instance(uint32_t i) const;
+  MeshPtr mesh(uint32_t m) const;
+  std::shared_ptr<const std::vector<glm::vec3>> shading_normals(uint32_t mesh) const;  // null: flat
+  // After commit(); the scene holds it until the mesh is replaced or the settings change.
+  const Structure& structure(uint32_t m) const;
   Bounds bounds() const;                          // world bounds of every instance
-  size_t memory_bytes() const;                    // structures + top level
-  double build_seconds() const;                   // of the last commit
+  // Of the last commit (0 before the first).
+  size_t memory_bytes() const;  // structures + top level
+  double build_seconds() const;
 
  private:
   struct Impl;
@@ -64,7 +70,7 @@ class Scene {
 // Throws std::invalid_argument unless `corner_normals` holds exactly 3 finite normals per triangle of `mesh`.
 void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec3> corner_normals);
 
-// Batch queries over a committed scene, parallel over rays (TBB). `stats` may be null.
+// Batch queries over one snapshot of the scene, parallel over rays (TBB). `stats` may be null.
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats);
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
                    TraversalStats* stats);

@@ -1,0 +1,92 @@
+// One committed state of a Scene: its meshes with their structures and shading normals, its
+// instances and the top level over them. Immutable once Scene::commit() made it, so any number of
+// threads may query it while the scene changes and commits again; whoever holds the shared_ptr keeps
+// the whole state alive (a query, a batch, a render).
+#pragma once
+
+#include "raylab/bvh_build.h"
+#include "raylab/structure.h"
+
+#include <glm/mat4x4.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace raylab {
+
+struct Instance {
+  uint32_t mesh = 0;
+  glm::mat4 transform{1.0f};  // object to world
+  uint32_t material = 0;      // an index the renderer interprets
+};
+
+// Its parts are shared, not copied, between the scene's edited state and the snapshots that did not
+// change them: a commit costs what changed.
+struct SceneMesh {
+  MeshPtr mesh;
+  Bounds bounds;                                // object space
+  std::shared_ptr<const Structure> structure;  // null while stale (only in the edited state)
+  std::shared_ptr<const std::vector<glm::vec3>> shading_normals;  // 3 per triangle; null: flat
+};
+
+struct SceneInstance {
+  Instance instance;
+  glm::mat4 world_to_object;
+};
+
+class SceneSnapshot {
+ public:
+  // Every mesh has its structure; `top` is the top level over the instances' world boxes.
+  SceneSnapshot(const BuildSettings& settings, std::vector<SceneMesh> meshes, std::vector<SceneInstance> instances,
+                std::shared_ptr<const BinaryBvh> top, uint64_t generation, double build_seconds);
+
+  // World-space queries. hit.instance is set; hit.t is in the world ray's parameter.
+  // stats.rays_ignored counts rays that entered no object (every object's box missed). With `none`
+  // and `aabb` every object meets every ray, as in VRT; octree and bvh scenes add a top level.
+  bool closest(const Ray& ray, Hit& hit, TraversalStats* stats = nullptr) const;
+  bool any(const Ray& ray, TraversalStats* stats = nullptr) const;
+
+  size_t mesh_count() const { return meshes_.size(); }
+  size_t instance_count() const { return instances_.size(); }
+  const Instance& instance(uint32_t i) const;
+  const TriangleMesh& mesh(uint32_t m) const;
+  const Structure& structure(uint32_t m) const;
+  const std::vector<glm::vec3>* shading_normals(uint32_t m) const;  // null: flat (face normals)
+  Bounds bounds() const;        // world bounds of every instance
+  size_t memory_bytes() const;  // structures + top level
+  double build_seconds() const { return build_seconds_; }  // of the commit that made it
+  uint64_t generation() const { return generation_; }  // the count of scene edits it includes
+
+ private:
+  friend class Scene;  // reuses the top level of the last snapshot when no instance box changed
+  template <class Recorder, class Visit>
+  void traverse(const Ray& ray, Recorder& record, float& tmax, Visit visit) const;
+  template <class Recorder>
+  bool closest(const Ray& ray, Hit& hit, Recorder& record) const;
+  template <class Recorder>
+  bool any(const Ray& ray, Recorder& record) const;
+  bool uses_top_level() const;
+
+  BuildSettings settings_;
+  std::vector<SceneMesh> meshes_;
+  std::vector<SceneInstance> instances_;
+  std::shared_ptr<const BinaryBvh> top_;
+  uint64_t generation_;
+  double build_seconds_;
+};
+
+using SceneSnapshotPtr = std::shared_ptr<const SceneSnapshot>;
+
+// The world box of an object box under an affine transform, padded so that rounding never lets the
+// top level cull a true hit.
+Bounds transform_bounds(const Bounds& b, const glm::mat4& m);
+
+// Batch queries over one snapshot, parallel over rays (TBB). `stats` may be null.
+void intersect_closest(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
+                       TraversalStats* stats);
+void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
+                   TraversalStats* stats);
+
+}  // namespace raylab
