@@ -29,9 +29,14 @@ glm::mat4 checked_inverse(const glm::mat4& m) {
   if (!finite(m)) throw std::invalid_argument("instance transform has a NaN or infinite entry");
   if (glm::row(m, 3) != glm::vec4(0, 0, 0, 1))
     throw std::invalid_argument("instance transform must be affine: its last row must be (0, 0, 0, 1)");
-  const glm::mat4 inverse = glm::inverse(m);
-  if (glm::determinant(glm::mat3(m)) == 0.0f || !finite(inverse))
+  // In double: a uniform scale of 1e-13 has a float determinant of about 1e-39, whose reciprocal
+  // overflows, though its inverse (scale 1e13) is a fine float matrix.
+  const glm::dmat4 exact(m);
+  if (glm::determinant(glm::dmat3(exact)) == 0.0)
     throw std::invalid_argument("instance transform is singular (not invertible)");
+  const glm::mat4 inverse(glm::inverse(exact));
+  if (!finite(inverse))
+    throw std::invalid_argument("instance transform is too close to singular: its inverse overflows float");
   return inverse;
 }
 

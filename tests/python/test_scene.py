@@ -143,3 +143,17 @@ def test_new_settings_rebuild_the_structures(two_spheres):
     scene.commit()
     h = scene.intersect(*RAYS, count=True)
     assert np.array_equal(h.triangle, expected.triangle) and np.array_equal(h.instance, expected.instance)
+
+
+@pytest.mark.parametrize("scale", [1e-13, 1e-20])
+def test_a_tiny_uniform_scale_is_invertible_and_hit(sphere, scale):
+    """A uniform scale far below 1 is invertible (its inverse fits a float); only one whose inverse would
+    overflow float is refused."""
+    scene = raylab.Scene(structure="bvh")
+    m = scene.add_mesh(*sphere)
+    scene.add_instance(m, translate(0, scale=scale))
+    scene.commit()
+    hits = scene.intersect(np.array([[0, 0, -1]], np.float32), np.array([0, 0, 1], np.float32))
+    assert hits.hit[0] and abs(hits.t[0] - (1 - scale)) <= 1e-6
+    with pytest.raises(ValueError, match="overflows"):
+        scene.add_instance(m, translate(0, scale=1e-40))
