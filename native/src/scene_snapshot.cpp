@@ -90,7 +90,10 @@ void SceneSnapshot::traverse(const Ray& ray, Recorder& record, float& tmax, Visi
   }
   const BinaryBvh& top = *top_;
   if (top.nodes.empty()) return;
-  const BoxRay box_ray(ray);
+  // Padded like a structure's own boxes, relative to the top root: the object-space ray is the world
+  // ray transformed in float, so an instance's hit can lie a rounding of the origin's distance
+  // outside its world box (transform_bounds pads only by the box's own coordinates).
+  const BoxRay box_ray(ray, top.nodes[0].bounds());
   float t_root = ray.tmin;
   const bool root_hit = intersect_box(top.nodes[0].bounds(), box_ray, ray.tmax, t_root);
   record.box(0, top.nodes[0].bounds(), 0, root_hit, t_root);

@@ -15,7 +15,7 @@ TEST(BoxIntersection, AxisParallelRayWithOriginOnSlabPlaneHitsFace) {
   ray.origin = {0.0f, 0.5f, -1.0f};  // lies exactly on the x = 0 plane
   ray.direction = {0, 0, 1};
   float t = -1;
-  EXPECT_TRUE(intersect_box(box, BoxRay(ray), ray.tmax, t));
+  EXPECT_TRUE(intersect_box(box, BoxRay(ray, Bounds{}), ray.tmax, t));
   EXPECT_FLOAT_EQ(t, 1.0f);
 }
 
@@ -25,7 +25,7 @@ TEST(BoxIntersection, AxisParallelRayBesideBoxMisses) {
   ray.origin = {1.5f, 0.5f, -1.0f};
   ray.direction = {0, 0, 1};
   float t;
-  EXPECT_FALSE(intersect_box(box, BoxRay(ray), ray.tmax, t));
+  EXPECT_FALSE(intersect_box(box, BoxRay(ray, Bounds{}), ray.tmax, t));
 }
 
 TEST(TriangleIntersection, WatertightAndMollerTrumboreAgreeInTheInterior) {
@@ -66,8 +66,8 @@ TEST(BoxIntersection, NegativeZeroDirectionWithOriginOnFacePlaneHitsBothBoxesSha
     ray.origin = {0.0f, 0.0f, -5.0f};
     ray.direction = {zero, 0.1f, 1.0f};
     float t = -1;
-    EXPECT_TRUE(intersect_box(below, BoxRay(ray), ray.tmax, t)) << "direction x = " << zero;
-    EXPECT_TRUE(intersect_box(above, BoxRay(ray), ray.tmax, t)) << "direction x = " << zero;
+    EXPECT_TRUE(intersect_box(below, BoxRay(ray, Bounds{}), ray.tmax, t)) << "direction x = " << zero;
+    EXPECT_TRUE(intersect_box(above, BoxRay(ray, Bounds{}), ray.tmax, t)) << "direction x = " << zero;
   }
 }
 

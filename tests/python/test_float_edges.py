@@ -170,3 +170,52 @@ def test_coordinates_within_the_limit_are_hit_by_every_structure(scale):
     reference = assert_all_equal_brute_force(vertices, triangles, origins, directions, f"scale {scale}")
     assert reference.hit.mean() > 0.5
     assert np.allclose(reference.t[reference.hit], 2.0 * scale, rtol=1e-5)  # t in units of the direction
+
+
+def test_scene_instances_give_the_brute_force_hit_at_the_edges(sphere):
+    # The exactness contract through a Scene's top level: flat instances under random rotations and
+    # scales, rays from near and far that end exactly on the hit (tmax = t) or graze the plane near
+    # the rim. The Scene with `none` (no top level) is the reference.
+    vertices, triangles = sphere
+    flat = vertices.copy()
+    flat[:, 2] = 0.0
+    rng = np.random.default_rng(10)
+    for trial in range(4):
+        scale = 10.0 ** rng.uniform(-3, 3)
+        matrices = []
+        for _ in range(4):
+            rotation, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            m = np.eye(4)
+            m[:3, :3] = rotation * rng.uniform(0.5, 2, 3) * scale
+            m[:3, 3] = rng.normal(size=3) * 3 * scale
+            matrices.append(m)
+        scenes = {}
+        for s in STRUCTURES:
+            scene = raylab.Scene(structure=s)
+            ids = scene.add_mesh(flat, triangles), scene.add_mesh(vertices, triangles)
+            for k, m in enumerate(matrices):
+                scene.add_instance(ids[k % 2], m)
+            scene.commit()
+            scenes[s] = scene
+        n = 400
+        points = flat[rng.integers(0, len(flat), n)] * rng.uniform(0.9, 1.0, (n, 1))  # near the rim
+        targets = (np.c_[points, np.ones(n)] @ matrices[0].T)[:, :3]
+        grazing = np.c_[rng.normal(size=(n, 2)), -np.abs(rng.normal(size=n)) * 10.0 ** rng.uniform(-4, 0, n)]
+        directions = grazing @ matrices[0][:3, :3].T
+        distance = scale * 10.0 ** rng.uniform(-6, 4, (n, 1))
+        origins = (targets - directions / np.linalg.norm(directions, axis=1, keepdims=True) * distance)
+        origins, directions = origins.astype(np.float32), directions.astype(np.float32)
+        reference = scenes["none"].intersect(origins, directions)
+        occluded = scenes["none"].occluded(origins, directions).hit
+        assert reference.hit.mean() > 0.8
+        for name, scene in scenes.items():
+            got = scene.intersect(origins, directions)
+            bad = (got.hit != reference.hit) | (got.hit & reference.hit & (
+                (got.t != reference.t) | (got.instance != reference.instance) | (got.triangle != reference.triangle)))
+            assert not bad.any(), f"trial {trial}: {name} differs from none on {int(bad.sum())} rays"
+            assert np.array_equal(scene.occluded(origins, directions).hit, occluded), f"trial {trial}: {name}"
+        for i in np.flatnonzero(reference.hit)[:60]:
+            for name, scene in scenes.items():
+                h = scene.intersect(origins[i], directions[i], tmax=float(reference.t[i]))
+                assert h.hit[0] and h.t[0] == reference.t[i], f"trial {trial}, ray {i}: {name} with tmax = t"
+                assert scene.occluded(origins[i], directions[i], tmax=float(reference.t[i])).hit[0], name

@@ -20,9 +20,9 @@ namespace raylab {
 // also covers the slab test's own rounding (Ize 2013's 2*gamma(3)) several hundred times over.
 inline constexpr float kBoxPadScale = 0x1p-16f;
 
-// pbrt's gamma(3) bound: widening the far distance by 1 + 2*gamma(3) (about 2 ulp) makes an unpadded
-// test conservative under rounding (Ize 2013). Only the scene's top level over instances, which has
-// no root-relative pad, relies on it.
+// pbrt's gamma(3) bound: widening the far distance by 1 + 2*gamma(3) (about 2 ulp) makes the test
+// conservative under its own rounding (Ize 2013) even where the pad is zero (an origin inside a
+// degenerate root box).
 inline constexpr float kBoxFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f) / (1.0f - 3.0f * 0x1p-24f);
 
 // The per-ray part of the slab test. The reciprocal of a zero component is +inf (IEEE), so
@@ -33,14 +33,16 @@ struct BoxRay {
   glm::vec3 origin;
   glm::vec3 inv_dir;
   float tmin, tmax;
-  float pad = 0.0f;  // every box is grown by this much on each side
+  float pad;  // every box is grown by this much on each side
 
-  // Unpadded: the scene's top level.
-  explicit BoxRay(const Ray& ray)
-      : origin(ray.origin), inv_dir(1.0f / effective_direction(ray.direction)), tmin(ray.tmin), tmax(ray.tmax) {}
-
-  // Padded for a structure whose boxes all lie inside `root`.
-  BoxRay(const Ray& ray, const Bounds& root) : BoxRay(ray) { pad = box_pad(ray.origin, root); }
+  // For a structure (or the scene's top level) whose boxes all lie inside `root`; an empty root
+  // gives no pad (the bare slab test).
+  BoxRay(const Ray& ray, const Bounds& root)
+      : origin(ray.origin),
+        inv_dir(1.0f / effective_direction(ray.direction)),
+        tmin(ray.tmin),
+        tmax(ray.tmax),
+        pad(box_pad(ray.origin, root)) {}
 
   // kBoxPadScale times the largest distance, along any axis, from the origin to the root box.
   static float box_pad(const glm::vec3& origin, const Bounds& root) {
