@@ -29,7 +29,7 @@ sys.path.insert(0, os.environ.get("RAYLAB_ADDON_DIR", os.path.join(ROOT, "addon"
 import raylab  # noqa: E402
 
 MESH_DIR = os.path.join(ROOT, "addon", "raylab", "meshes")
-ACCELERATED = ("aabb", "octree", "bvh")
+ACCELERATED = tuple(s for s in raylab.STRUCTURES if s != "none")  # each held to brute force
 TINY_COMPONENTS = (0.0, -0.0, 1e-45, -1e-45, 1e-39, -1e-39, 1e-30, -1e-30)
 
 

@@ -17,13 +17,22 @@ import sys
 from . import _raylab
 
 __all__ = [
-    "STRUCTURES", "TRIANGLE_TESTS", "BuildError", "load_mesh", "build", "build_file",
+    "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
+    "DEFAULTS", "BuildError", "load_mesh", "build", "build_file",
     "Structure", "Scene", "Hits", "Occlusion", "RayStory", "render", "write_image",
 ]
 
-STRUCTURES = ("none", "aabb", "octree", "bvh")
-TRIANGLE_TESTS = ("watertight", "moller_trumbore")
+# The core's vocabularies (native/python/vocabulary.cpp), never listed again in Python.
+STRUCTURE_INFO = {s["name"]: s for s in _raylab.STRUCTURES}  # name -> label, description, parameters it uses...
+STRUCTURES = tuple(STRUCTURE_INFO)                             # ("none", "aabb", "octree", "bvh", ...)
+TRIANGLE_TEST_INFO = {t["name"]: t for t in _raylab.TRIANGLE_TESTS}
+TRIANGLE_TESTS = tuple(TRIANGLE_TEST_INFO)                     # ("watertight", "moller_trumbore")
+COUNTER_INFO = {c["name"]: c for c in _raylab.COUNTERS}      # the keys of every stats dict, in order
+COUNTERS = tuple(COUNTER_INFO)
+DEFAULTS = dict(_raylab.BUILD_DEFAULTS)                        # structure, max_depth, leaf_size, ...
 BuildError = _raylab.BuildError
+
+_D = DEFAULTS
 
 
 class _Record:
@@ -98,8 +107,8 @@ class Structure:
 
     def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
         """Closest hits in (tmin, tmax] of rays given as (N,3) origins and directions (either may be
-        one (3,) row shared by all rays). Returns Hits. With count=True, h.stats is a dict
-        {rays, rays_ignored, box_tests, triangle_tests, nodes_visited}; otherwise None."""
+        one (3,) row shared by all rays). Returns Hits. With count=True, h.stats is a dict with
+        the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None."""
         return Hits(self.native.intersect(origins, directions, tmin, tmax, count))
 
     def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
@@ -119,8 +128,8 @@ class Structure:
                 f"{self.memory_bytes} bytes, built in {self.build_seconds:.3f} s>")
 
 
-def build(vertices, triangles, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
-          memory_budget=None):
+def build(vertices, triangles, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
+          triangle_test=_D["triangle_test"], memory_budget=None):
     """Builds a structure over (V,3) float32 vertices and (T,3) uint32 triangles.
 
     Other real dtypes are converted (vertices to float32); negative or out-of-range indices, NaN or
@@ -132,8 +141,8 @@ def build(vertices, triangles, structure="bvh", max_depth=6, leaf_size=8, triang
                                    memory_budget))
 
 
-def build_file(path, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
-               memory_budget=None):
+def build_file(path, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
+               triangle_test=_D["triangle_test"], memory_budget=None):
     """build() over the mesh read from an OBJ file."""
     return Structure(_raylab.build_file(path, structure, max_depth, leaf_size, triangle_test,
                                         memory_budget))
@@ -150,7 +159,8 @@ class Scene:
 
     __slots__ = ("native",)
 
-    def __init__(self, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight", memory_budget=None):
+    def __init__(self, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
+                 triangle_test=_D["triangle_test"], memory_budget=None):
         self.native = _raylab.Scene(structure, max_depth, leaf_size, triangle_test, memory_budget)
 
     def add_mesh(self, vertices, triangles, normals=None):
@@ -174,8 +184,8 @@ class Scene:
     def set_transform(self, instance, matrix):
         self.native.set_transform(instance, matrix)
 
-    def set_settings(self, structure="bvh", max_depth=6, leaf_size=8, triangle_test="watertight",
-                     memory_budget=None):
+    def set_settings(self, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
+                     triangle_test=_D["triangle_test"], memory_budget=None):
         """New build settings: every mesh structure is rebuilt at the next commit()."""
         self.native.set_settings(structure, max_depth, leaf_size, triangle_test, memory_budget)
 

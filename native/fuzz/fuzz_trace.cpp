@@ -54,9 +54,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   settings.triangle_test = (in.byte() & 1) ? raylab::TriangleTest::MollerTrumbore : raylab::TriangleTest::Watertight;
   std::vector<std::unique_ptr<raylab::Structure>> structures;
   try {
-    for (auto kind : {raylab::StructureKind::None, raylab::StructureKind::Aabb, raylab::StructureKind::Octree,
-                      raylab::StructureKind::Bvh}) {
-      settings.kind = kind;
+    for (const raylab::StructureInfo& kind : raylab::structure_kinds()) {
+      settings.kind = kind.kind;
       structures.push_back(raylab::build_structure(mesh, settings));
     }
   } catch (const std::exception&) {

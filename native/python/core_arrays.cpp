@@ -113,23 +113,30 @@ MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles) {
   return mesh;
 }
 
-const char* triangle_test_name(TriangleTest test) {
-  return test == TriangleTest::Watertight ? "watertight" : "moller_trumbore";
+namespace {
+
+// "a, b or c": the names of a vocabulary table, for a parameter error.
+template <class Table>
+std::string names_of(const Table& table) {
+  std::string out;
+  size_t k = 0;
+  for (const auto& row : table) {
+    out += (k == 0 ? "" : k + 1 == std::size(table) ? " or " : ", ") + std::string(row.name);
+    ++k;
+  }
+  return out;
 }
+
+}  // namespace
 
 BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
                                       py::handle triangle_test_name, py::handle memory_budget) {
   BuildSettings s;
-  s.kind = structure_kind_from_name(str_parameter(structure, "structure", "none, aabb, octree or bvh"));
+  static const std::string structures = names_of(structure_kinds()), tests = names_of(kTriangleTests);
+  s.kind = structure_kind_from_name(str_parameter(structure, "structure", structures.c_str()));
   s.max_depth = int32_parameter(max_depth, "max_depth");
   s.leaf_size = int32_parameter(leaf_size, "leaf_size");
-  const std::string triangle_test =
-      str_parameter(triangle_test_name, "triangle_test", "watertight or moller_trumbore");
-  if (triangle_test == "watertight") s.triangle_test = TriangleTest::Watertight;
-  else if (triangle_test == "moller_trumbore") s.triangle_test = TriangleTest::MollerTrumbore;
-  else
-    throw std::invalid_argument("unknown triangle_test '" + triangle_test +
-                                "': expected watertight or moller_trumbore");
+  s.triangle_test = triangle_test_from_name(str_parameter(triangle_test_name, "triangle_test", tests.c_str()));
   if (!memory_budget.is_none()) {
     if (!py::isinstance<py::int_>(memory_budget) || py::isinstance<py::bool_>(memory_budget))
       throw std::invalid_argument("memory_budget must be a whole number of bytes or None, got " +
@@ -213,11 +220,7 @@ py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded) {
 
 py::dict stats_to_dict(const TraversalStats& s) {
   py::dict d;
-  d["rays"] = s.rays;
-  d["rays_ignored"] = s.rays_ignored;
-  d["box_tests"] = s.box_tests;
-  d["triangle_tests"] = s.triangle_tests;
-  d["nodes_visited"] = s.nodes_visited;
+  for (const CounterInfo& c : kCounters) d[c.name] = s.*c.field;
   return d;
 }
 

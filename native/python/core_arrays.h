@@ -24,6 +24,22 @@ MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles);
 
 // The keywords every build takes, as any Python objects -> validated settings (a wrong type,
 // unknown name or bad value raises a ValueError naming the keyword).
+// The build settings as keyword arguments with BuildSettings' own defaults, for every binding that
+// takes them (build, build_file, Scene, Scene.set_settings): `def(f, leading args..., settings...)`.
+inline auto settings_keywords() {
+  const BuildSettings d;
+  return std::make_tuple(py::arg("structure") = structure_kind_name(d.kind), py::arg("max_depth") = d.max_depth,
+                         py::arg("leaf_size") = d.leaf_size,
+                         py::arg("triangle_test") = triangle_test_name(d.triangle_test),
+                         py::arg("memory_budget") = py::none());
+}
+
+// Calls `define(keywords...)` with settings_keywords() appended to `leading` (py::arg objects).
+template <class Define, class... Leading>
+void with_settings_keywords(Define define, Leading... leading) {
+  std::apply([&](auto... settings) { define(leading..., settings...); }, settings_keywords());
+}
+
 BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
                                       py::handle triangle_test, py::handle memory_budget);
 
@@ -39,7 +55,6 @@ py::dict hits_to_dict(const std::vector<Hit>& hits, bool single_instance);
 py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded);
 py::dict stats_to_dict(const TraversalStats& stats);
 
-const char* triangle_test_name(TriangleTest test);
 
 // A batch query: rays from the arrays, `trace(rays, results, stats)` with the GIL released while both
 // cores trace, then the results as a dict of arrays plus "stats" (None unless `count`).

@@ -152,28 +152,34 @@ void bind_core(py::module_& m) {
       .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit);
 
-  m.def(
-      "build",
-      [](py::handle vertices, py::handle triangles, py::handle structure, py::handle max_depth, py::handle leaf_size,
-         py::handle triangle_test, py::handle memory_budget) {
-        const BuildSettings settings =
-            settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
-        return build(mesh_from_arrays(vertices, triangles), settings);
+  with_settings_keywords(
+      [&](auto... keywords) {
+        m.def(
+            "build",
+            [](py::handle vertices, py::handle triangles, py::handle structure, py::handle max_depth,
+               py::handle leaf_size, py::handle triangle_test, py::handle memory_budget) {
+              const BuildSettings settings =
+                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
+              return build(mesh_from_arrays(vertices, triangles), settings);
+            },
+            keywords...);
       },
-      py::arg("vertices"), py::arg("triangles"), py::arg("structure") = "bvh", py::arg("max_depth") = 6,
-      py::arg("leaf_size") = 8, py::arg("triangle_test") = "watertight", py::arg("memory_budget") = py::none());
+      py::arg("vertices"), py::arg("triangles"));
 
-  m.def(
-      "build_file",
-      [](py::handle path, py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
-         py::handle memory_budget) {
-        const std::string file = path_parameter(path, "path");
-        const BuildSettings settings =
-            settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
-        return build(std::make_shared<const TriangleMesh>(read_mesh_file(file)), settings);
+  with_settings_keywords(
+      [&](auto... keywords) {
+        m.def(
+            "build_file",
+            [](py::handle path, py::handle structure, py::handle max_depth, py::handle leaf_size,
+               py::handle triangle_test, py::handle memory_budget) {
+              const std::string file = path_parameter(path, "path");
+              const BuildSettings settings =
+                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
+              return build(std::make_shared<const TriangleMesh>(read_mesh_file(file)), settings);
+            },
+            keywords...);
       },
-      py::arg("path"), py::arg("structure") = "bvh", py::arg("max_depth") = 6, py::arg("leaf_size") = 8,
-      py::arg("triangle_test") = "watertight", py::arg("memory_budget") = py::none());
+      py::arg("path"));
 
   bind_scene(m);
 }

@@ -55,14 +55,23 @@ auto with_normals(py::handle vertices, py::handle triangles, py::handle normals,
 
 void bind_scene(py::module_& m) {
   constexpr double kNoLimit = std::numeric_limits<double>::infinity();
-  py::class_<Scene>(m, "Scene", "Meshes and their instances; one structure per mesh shared by its instances.")
-      .def(py::init([](py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
-                       py::handle memory_budget) {
-             return std::make_unique<Scene>(
-                 settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget));
-           }),
-           py::arg("structure") = "bvh", py::arg("max_depth") = 6, py::arg("leaf_size") = 8,
-           py::arg("triangle_test") = "watertight", py::arg("memory_budget") = py::none())
+  py::class_<Scene> scene(m, "Scene", "Meshes and their instances; one structure per mesh shared by its instances.");
+  with_settings_keywords([&](auto... keywords) {
+    scene.def(py::init([](py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
+                          py::handle memory_budget) {
+                return std::make_unique<Scene>(
+                    settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget));
+              }),
+              keywords...);
+    scene.def(
+        "set_settings",
+        [](Scene& s, py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
+           py::handle memory_budget) {
+          s.set_settings(settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget));
+        },
+        keywords...);
+  });
+  scene
       .def(
           "add_mesh",
           [](Scene& s, py::handle vertices, py::handle triangles, py::handle normals) {
@@ -96,14 +105,6 @@ void bind_scene(py::module_& m) {
             s.set_transform(id_parameter(instance, s.instance_count(), "instance"), matrix_from_array(matrix));
           },
           py::arg("instance"), py::arg("matrix"))
-      .def(
-          "set_settings",
-          [](Scene& s, py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
-             py::handle memory_budget) {
-            s.set_settings(settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget));
-          },
-          py::arg("structure") = "bvh", py::arg("max_depth") = 6, py::arg("leaf_size") = 8,
-          py::arg("triangle_test") = "watertight", py::arg("memory_budget") = py::none())
       .def("commit",
            [](Scene& s) {
              py::gil_scoped_release release;

@@ -3,6 +3,7 @@
 
 PYBIND11_MODULE(_raylab, m) {
   m.doc() = "raylab native core: acceleration structures, scenes and the renderer";
+  raylab::python::bind_vocabulary(m);
   raylab::python::bind_core(m);
   raylab::python::bind_render(m);
 }

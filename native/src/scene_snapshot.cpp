@@ -29,9 +29,8 @@ auto counted(Recorder& record, bool& entered, Query query) {
     TraversalStats s;
     const auto result = query(&s);
     if (s.rays_ignored == 0) entered = true;
-    record.stats.box_tests += s.box_tests;
-    record.stats.triangle_tests += s.triangle_tests;
-    record.stats.nodes_visited += s.nodes_visited;
+    for (const CounterInfo& c : kCounters)
+      if (c.object_work) record.stats.*c.field += s.*c.field;
     return result;
   } else {
     return query(nullptr);
@@ -67,12 +66,7 @@ SceneSnapshot::SceneSnapshot(const BuildSettings& settings, std::vector<SceneMes
   if (!top_) throw std::logic_error("snapshot without a top level");
 }
 
-// `none` and `aabb` are VRT's models: every object meets every ray and its own structure decides
-// (brute force tests every triangle of every object; the AABB ignores the ray or not). A top level
-// over the instances would be acceleration those two do not have.
-bool SceneSnapshot::uses_top_level() const {
-  return settings_.kind == StructureKind::Octree || settings_.kind == StructureKind::Bvh;
-}
+bool SceneSnapshot::uses_top_level() const { return structure_info(settings_.kind).uses_top_level; }
 
 // One traversal of the top level for both queries. `visit(instance, tmax)` queries one instance
 // and returns the new far limit (any-hit returns -inf to stop).

@@ -6,27 +6,49 @@
 #include "raylab/bvh.h"
 #include "raylab/octree.h"
 
-
 #include <chrono>
 
 namespace raylab {
 
-StructureKind structure_kind_from_name(const std::string& name) {
-  if (name == "none") return StructureKind::None;
-  if (name == "aabb") return StructureKind::Aabb;
-  if (name == "octree") return StructureKind::Octree;
-  if (name == "bvh") return StructureKind::Bvh;
-  throw std::invalid_argument("unknown structure '" + name + "': expected none, aabb, octree or bvh");
+namespace {
+
+template <class T>
+std::unique_ptr<Structure> make(MeshPtr mesh, const BuildSettings& settings) {
+  return std::make_unique<T>(std::move(mesh), settings);
 }
 
-const char* structure_kind_name(StructureKind kind) {
-  switch (kind) {
-    case StructureKind::None: return "none";
-    case StructureKind::Aabb: return "aabb";
-    case StructureKind::Octree: return "octree";
-    case StructureKind::Bvh: return "bvh";
+// VRT's levels in order, then what raylab adds. `none` and `aabb` are VRT's models: every object meets
+// every ray and its own structure decides, so a Scene gives them no top level.
+constexpr StructureInfo kStructures[] = {
+    {StructureKind::None, "none", "None", "Every ray tests every triangle (brute force)", "the object", false,
+     false, false, false, &make<BruteForce>},
+    {StructureKind::Aabb, "aabb", "AABB",
+     "One axis-aligned bounding box per object; rays that miss it are ignored", "the AABB", false, false, false,
+     true, &make<AabbStructure>},
+    {StructureKind::Octree, "octree", "Octree",
+     "A cube split into octants while a node holds more than leaf size triangles, down to the maximum depth",
+     "the octree root", true, true, true, true, &build_octree},
+    {StructureKind::Bvh, "bvh", "BVH", "A bounding volume hierarchy built with the binned surface area heuristic",
+     "the BVH root", false, true, true, true, &build_bvh},
+};
+
+}  // namespace
+
+std::span<const StructureInfo> structure_kinds() { return kStructures; }
+
+const StructureInfo& structure_info(StructureKind kind) {
+  for (const StructureInfo& info : kStructures)
+    if (info.kind == kind) return info;
+  throw std::logic_error("structure kind " + std::to_string(int(kind)) + " has no row in kStructures");
+}
+
+const StructureInfo& structure_info(const std::string& name) {
+  std::string names;
+  for (const StructureInfo& info : kStructures) {
+    if (name == info.name) return info;
+    names += (names.empty() ? "" : ", ") + std::string(info.name);
   }
-  return "?";
+  throw std::invalid_argument("unknown structure '" + name + "': expected one of " + names);
 }
 
 const char* ray_status_name(RayStatus status) {
@@ -41,7 +63,9 @@ const char* ray_status_name(RayStatus status) {
 
 void BuildSettings::validate() const {
   if (max_depth < 0) throw std::invalid_argument("max_depth must be >= 0, got " + std::to_string(max_depth));
-  if (max_depth > 16) throw std::invalid_argument("max_depth must be <= 16, got " + std::to_string(max_depth));
+  if (max_depth > kMaxDepthLimit)
+    throw std::invalid_argument("max_depth must be <= " + std::to_string(kMaxDepthLimit) + ", got " +
+                                std::to_string(max_depth));
   if (leaf_size < 1) throw std::invalid_argument("leaf_size must be >= 1, got " + std::to_string(leaf_size));
   if (memory_budget == 0) throw std::invalid_argument("memory_budget must be positive");
 }
@@ -51,13 +75,7 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
   settings.validate();
   mesh->validate();
   const auto start = std::chrono::steady_clock::now();
-  std::unique_ptr<Structure> s;
-  switch (settings.kind) {
-    case StructureKind::None: s = std::make_unique<BruteForce>(mesh, settings); break;
-    case StructureKind::Aabb: s = std::make_unique<AabbStructure>(mesh, settings); break;
-    case StructureKind::Octree: s = build_octree(mesh, settings); break;
-    case StructureKind::Bvh: s = build_bvh(mesh, settings); break;
-  }
+  std::unique_ptr<Structure> s = structure_info(settings.kind).build(mesh, settings);
   s->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;
 }

@@ -16,7 +16,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.p
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import blender_window  # noqa: E402
 import raylab  # noqa: E402
-from raylab.blender import render_engine  # noqa: E402
+from raylab.blender import render_stats  # noqa: E402
 
 SCREENSHOT, REPORT = (os.path.abspath(path) for path in sys.argv[sys.argv.index("--") + 1:][:2])
 TIMEOUT_TICKS = 600   # 0.25 s each
@@ -31,8 +31,8 @@ def record_stats_line(stats):
 
 
 # RNA methods such as update_stats cannot be wrapped from Python: record the line the engine sends.
-original_stats_line = render_engine.stats_line
-render_engine.stats_line = record_stats_line
+original_stats_line = render_stats.line
+render_stats.line = record_stats_line
 
 
 def finish():

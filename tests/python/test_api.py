@@ -16,8 +16,26 @@ from conftest import ADDON, MESH_DIR, load
 STRUCTURES = raylab.STRUCTURES
 
 
-def test_structures_are_the_agreed_four():
-    assert STRUCTURES == ("none", "aabb", "octree", "bvh")
+def test_the_core_vocabularies_are_exported_once_and_complete():
+    # VRT's three and the BVH come first, brute force first of all (the reference everything is held to).
+    assert STRUCTURES[:4] == ("none", "aabb", "octree", "bvh")
+    assert len(set(STRUCTURES)) == len(STRUCTURES)
+    for name, info in raylab.STRUCTURE_INFO.items():
+        assert info["label"] and info["description"] and info["root_name"], name
+        assert raylab.build(*load("sphere"), structure=name).structure == name
+    assert raylab.TRIANGLE_TESTS == ("watertight", "moller_trumbore")
+    assert all(info["label"] and info["description"] for info in raylab.TRIANGLE_TEST_INFO.values())
+    # Every stats dict has exactly the exported counters, in order.
+    stats = raylab.build(*load("sphere")).intersect([0, 0, 5], [0, 0, -1], count=True).stats
+    assert tuple(stats) == raylab.COUNTERS
+    assert raylab.COUNTERS[:2] == ("rays", "rays_ignored")
+    # The defaults are the core's, and the Python signatures show them.
+    import inspect
+    assert raylab.DEFAULTS["structure"] == "bvh" and raylab.DEFAULTS["max_depth_limit"] == 16
+    for function in (raylab.build, raylab.build_file, raylab.Scene, raylab.Scene.set_settings):
+        parameters = inspect.signature(function).parameters
+        for name in ("structure", "max_depth", "leaf_size", "triangle_test"):
+            assert parameters[name].default == raylab.DEFAULTS[name], (function, name)
     assert issubclass(raylab.BuildError, RuntimeError)
 
 
@@ -51,7 +69,7 @@ def test_structure_properties(sphere, structure):
     assert (s.triangle_count, s.vertex_count) == (1280, 642)
     assert s.build_seconds >= 0.0
     assert isinstance(s.memory_bytes, int)
-    if structure in ("octree", "bvh"):
+    if raylab.STRUCTURE_INFO[structure]["uses_top_level"]:  # the hierarchies
         assert s.memory_bytes > 0
     assert (s.max_depth, s.leaf_size, s.triangle_test) == (4, 3, "watertight")
 
@@ -296,7 +314,7 @@ def test_an_empty_mesh_is_missed_by_every_ray(structure):
     story = s.story(o[0], d[0])
     assert story.hit is None and story.status != "hit_object"
     boxes = s.boxes()
-    if structure in ("none", "aabb"):
+    if structure in ("none", "aabb"):  # VRT's models: no boxes without triangles
         assert len(boxes["depth"]) == 0
 
 

@@ -3,7 +3,8 @@ import bpy
 
 from .. import api
 
-from .render_engine import human_count, id_property_stats, render_exported, total_rays
+from . import render_stats
+from .render_engine import render_exported
 from .scene_export import export_scene
 
 
@@ -28,21 +29,11 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
         except (ValueError, api.BuildError) as error:
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
-        scene["raylab_comparison"] = {structure: id_property_stats(result.stats, props.super_sampling)
+        scene["raylab_comparison"] = {structure: render_stats.record(result.stats, props.super_sampling)
                                       for structure, result in results}
         fastest = min(results, key=lambda item: item[1].stats["render_seconds"])[0]
         self.report({'INFO'}, f"raylab: compared {len(results)} structures; fastest render: {fastest}")
         return {'FINISHED'}
-
-
-# (measure, formatter of a comparison row)
-MEASURES = (("Build (ms)", lambda r: f"{1000 * r['build_seconds']:.1f}"),
-            ("Render (s)", lambda r: f"{r['render_seconds']:.2f}"),
-            ("Rays", lambda r: human_count(total_rays(r))),
-            ("Box tests", lambda r: human_count(r["box_tests"])),
-            ("Triangle tests", lambda r: human_count(r["triangle_tests"])),
-            ("Rays ignored", lambda r: human_count(r["rays_ignored"])),
-            ("Memory (KiB)", lambda r: f"{r['memory_bytes'] / 1024:.0f}"))
 
 
 class RAYLAB_PT_comparison(bpy.types.Panel):
@@ -61,18 +52,18 @@ class RAYLAB_PT_comparison(bpy.types.Panel):
         if not table:
             return
         first = next(iter(table.values()))
-        layout.label(text=f"{first['width']} x {first['height']} px, super sampling {first['super_sampling']}")
+        layout.label(text=render_stats.size_text(first))
         # The sidebar is narrow: one line of four values (a column per structure) under each measure.
         column = layout.column(align=True)
         header = column.grid_flow(row_major=True, columns=len(table), even_columns=True)
         for structure in table.keys():
             header.label(text=structure)
-        for title, cell in MEASURES:
+        for key, title, show in render_stats.FIELDS:
             column.separator()
             column.label(text=title)
             values = column.box().grid_flow(row_major=True, columns=len(table), even_columns=True)
             for row in table.values():
-                values.label(text=cell(row))
+                values.label(text=show(row[key]))
 
 
 CLASSES = (RAYLAB_OT_compare_structures, RAYLAB_PT_comparison)

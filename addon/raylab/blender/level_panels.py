@@ -6,6 +6,7 @@ import textwrap
 import bpy
 import bpy.utils.previews
 
+from .. import api
 from . import leak_overlay, levels
 
 _previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
@@ -134,8 +135,8 @@ class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
         if leaks is not None:
             box = layout.box()
             box.label(text=f"Leak test: {leaks['rays']:,} rays from inside", icon='MOD_FLUIDSIM')
-            box.label(text=f"Möller–Trumbore: {leaks['moller_trumbore']:,} leaked")
-            box.label(text=f"watertight: {leaks['watertight']:,} leaked")
+            for test, info in api.TRIANGLE_TEST_INFO.items():
+                box.label(text=f"{info['label']}: {leaks[test]:,} leaked")
             if leak_overlay.leak_segments(context.scene) is not None:
                 box.label(text="Escaped rays: red in the viewport", icon='INFO')
         if tasks and first_open is None:

@@ -653,9 +653,9 @@ MAX_LEAKS_DRAWN = 400
 def leak_test(scene):
     """Shoots rays from the centre of the level mesh's box through every vertex and every edge midpoint,
     the places where two triangles meet, with each triangle test. From inside a closed mesh every ray
-    must hit; the ones that hit nothing leaked. Stores and returns {rays, moller_trumbore, watertight,
-    centre, escaped, mesh}: the box centre and the points where up to MAX_LEAKS_DRAWN escaped rays
-    (spread over all of them) passed through (object space, flat lists), for the viewport to draw;
+    must hit; the ones that hit nothing leaked. Stores and returns {rays, one count per name in
+    api.TRIANGLE_TESTS, centre, escaped, mesh}: the box centre and the points where up to MAX_LEAKS_DRAWN escaped rays
+    of the leakiest test (spread over all of them) passed through (object space, flat lists), for the viewport to draw;
     `mesh` is the mesh_fingerprint they belong to."""
     obj = level_mesh_object(scene)
     if obj is None:
@@ -668,15 +668,16 @@ def leak_test(scene):
     keep = np.linalg.norm(directions, axis=1) > 0  # a vertex at the very centre gives no direction
     origins = np.repeat(centre[None].astype(np.float32), int(keep.sum()), axis=0)
     result = {"rays": int(keep.sum()), "centre": [float(c) for c in centre], "mesh": mesh_fingerprint(obj)}
-    for test in ("moller_trumbore", "watertight"):
+    escaped = targets[:0]
+    for test in api.TRIANGLE_TESTS:
         # Every triangle tested for every ray: the count measures the triangle test alone.
         structure = api.build(vertices, triangles, structure="none", triangle_test=test)
         missed = ~structure.intersect(origins, directions[keep]).hit
         result[test] = int(missed.sum())
-        if test == "moller_trumbore":
+        if missed.sum() > len(escaped):  # the viewport draws the leakiest test's escapes
             escaped = targets[keep][missed]
-            spread = np.linspace(0, len(escaped) - 1, min(len(escaped), MAX_LEAKS_DRAWN)).astype(int)
-            result["escaped"] = escaped[spread].ravel().tolist()
+    spread = np.linspace(0, len(escaped) - 1, min(len(escaped), MAX_LEAKS_DRAWN)).astype(int)
+    result["escaped"] = escaped[spread].ravel().tolist()
     scene[LEAK_KEY] = result
     return result
 
@@ -696,8 +697,8 @@ class RAYLAB_OT_level_leak_test(bpy.types.Operator):
         except (LevelError, ValueError) as error:
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
-        self.report({'INFO'}, f"raylab: of {result['rays']:,} rays, Möller–Trumbore leaked "
-                              f"{result['moller_trumbore']:,}, watertight {result['watertight']:,}")
+        leaked = ", ".join(f"{info['label']} {result[test]:,}" for test, info in api.TRIANGLE_TEST_INFO.items())
+        self.report({'INFO'}, f"raylab: of {result['rays']:,} rays, leaked: {leaked}")
         return {'FINISHED'}
 
 

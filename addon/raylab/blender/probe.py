@@ -15,6 +15,7 @@ import math
 import bpy
 import numpy as np
 
+from .. import api
 from . import overlay, structure_cache
 
 STATUSES = ("missed_root", "missed_nodes", "missed_triangles", "hit_object")  # in rising priority
@@ -24,7 +25,6 @@ STATUS_COLORS = {
     "missed_triangles": (1.00, 0.90, 0.10, 1.0),
     "hit_object": (0.20, 0.85, 1.00, 1.0),
 }
-ROOT_NAMES = {"aabb": "the AABB", "octree": "the octree root", "bvh": "the BVH root"}
 VISITED_COLOR = (1.0, 1.0, 0.55, 1.0)
 MISSED_BOX_COLOR = (1.0, 0.3, 0.25, 0.55)
 ENTRY_COLOR = (1.0, 1.0, 1.0, 1.0)
@@ -36,7 +36,7 @@ FAN_OBJECT_HALF_ANGLE = math.radians(20.0)  # the ray object's fan: a 40° pyram
 
 def status_message(status, structure):
     if status == "missed_root":
-        return f"Ray ignored: missed {ROOT_NAMES.get(structure, 'the root')}"
+        return f"Ray ignored: missed {api.STRUCTURE_INFO[structure]['root_name']}"
     if status == "missed_nodes":
         return "Hit the box, missed the object (no node with triangles entered)"
     if status == "missed_triangles":

@@ -8,11 +8,19 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatVectorProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-STRUCTURE_ITEMS = [
-    ("aabb", "AABB", "The object's axis-aligned bounding box, re-computed in world space as the object moves"),
-    ("octree", "Octree", "The octree: a cube split into octants down to the maximum depth"),
-    ("bvh", "BVH", "The bounding volume hierarchy (binned SAH)"),
-]
+from .. import api
+
+
+def structure_items(drawable_only=False):
+    """EnumProperty items from the core's table of structure kinds (api.STRUCTURE_INFO)."""
+    return [(name, info["label"], info["description"]) for name, info in api.STRUCTURE_INFO.items()
+            if info["has_boxes"] or not drawable_only]
+
+
+def uses(structure, parameter):
+    """Whether `parameter` ("max_depth" or "leaf_size") changes the build of `structure`."""
+    return api.STRUCTURE_INFO[structure][f"uses_{parameter}"]
+
 
 VRT_GREEN = (0.2, 1.0, 0.2, 1.0)
 
@@ -52,11 +60,13 @@ def _probe_field(name):
 
 class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     # Structure overlay
-    structure: EnumProperty(name="Structure", items=STRUCTURE_ITEMS, default="octree", update=_redraw,
+    structure: EnumProperty(name="Structure", items=structure_items(drawable_only=True), default="octree", update=_redraw,
                             description="The acceleration structure drawn over the meshes and probed by the ray")
-    max_depth: IntProperty(name="Max depth", min=0, max=10, default=4, update=_redraw,
+    # The viewport starts shallower than the core's default: a depth-4 octree can be read box by box.
+    max_depth: IntProperty(name="Max depth", min=0, max=api.DEFAULTS["max_depth_limit"], soft_max=10, default=4,
+                           update=_redraw,
                            description="Octree: the deepest level a node may split to (0 = the root alone)")
-    leaf_size: IntProperty(name="Leaf size", min=1, max=64, default=8, update=_redraw,
+    leaf_size: IntProperty(name="Leaf size", min=1, max=64, default=api.DEFAULTS["leaf_size"], update=_redraw,
                            description="Triangles a node may hold before it splits (octree) / per leaf (BVH)")
     show: BoolProperty(name="Show boxes", default=True, update=_redraw,
                        description="Draw the structure's boxes over the meshes")

@@ -2,20 +2,17 @@
 import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty
 
-STRUCTURE_ITEMS = [
-    ("none", "None", "Every ray tests every triangle"),
-    ("aabb", "AABB", "One bounding box per object; rays that miss it are ignored"),
-    ("octree", "Octree", "Octree per mesh (maximum depth, leaf size)"),
-    ("bvh", "BVH", "Bounding volume hierarchy per mesh (binned SAH)"),
-]
+from .. import api
+from .properties import structure_items
 
 
 class RaylabRenderSettings(bpy.types.PropertyGroup):
-    structure: EnumProperty(name="Structure", items=STRUCTURE_ITEMS, default="bvh",
+    structure: EnumProperty(name="Structure", items=structure_items(), default=api.DEFAULTS["structure"],
                             description="Acceleration structure built for every mesh")
-    max_depth: IntProperty(name="Octree Depth", default=6, min=0, max=12,
+    max_depth: IntProperty(name="Octree Depth", default=api.DEFAULTS["max_depth"], min=0,
+                           max=api.DEFAULTS["max_depth_limit"], soft_max=12,
                            description="Maximum octree depth (0 = the root box only)")
-    leaf_size: IntProperty(name="Leaf Size", default=8, min=1, max=256,
+    leaf_size: IntProperty(name="Leaf Size", default=api.DEFAULTS["leaf_size"], min=1, max=256,
                            description="Triangles a node may hold before it is split (octree and BVH)")
     super_sampling: IntProperty(name="Super Sampling", default=1, min=1, max=4,
                                 description="N x N camera rays per pixel")

@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import api
 
+from . import properties
 from .default_scene import mesh_triangles, mesh_vertices
 
 stats = {"structure_builds": 0, "mesh_reads": 0}
@@ -100,10 +101,11 @@ def _mesh_of(obj, depsgraph):
 
 
 def settings_key(settings):
+    """The build settings that matter for the chosen structure (a change to another one costs no rebuild)."""
     structure = settings.structure
     return (structure,
-            settings.max_depth if structure == "octree" else None,
-            settings.leaf_size if structure in ("octree", "bvh") else None)
+            settings.max_depth if properties.uses(structure, "max_depth") else None,
+            settings.leaf_size if properties.uses(structure, "leaf_size") else None)
 
 
 def structure_for(obj, settings, depsgraph=None):

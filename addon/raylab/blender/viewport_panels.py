@@ -1,17 +1,17 @@
 """The 3D viewport sidebar tab "raylab": Structure, Probe and Last render panels."""
 import bpy
 
-from . import probe, structure_cache
+from . import probe, properties, render_stats, structure_cache
 
 
 def draw_structure_settings(layout, props):
     """The structure and its build settings, each active only where it applies (viewport and render)."""
     layout.prop(props, "structure")
     depth = layout.row()
-    depth.active = props.structure == "octree"
+    depth.active = properties.uses(props.structure, "max_depth")
     depth.prop(props, "max_depth")
     leaf = layout.row()
-    leaf.active = props.structure in ("octree", "bvh")
+    leaf.active = properties.uses(props.structure, "leaf_size")
     leaf.prop(props, "leaf_size")
 
 
@@ -89,24 +89,12 @@ class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
 class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
     bl_label = "Last render"
 
-    FIELDS = (("structure", "Structure"), ("rays_primary", "Primary rays"), ("rays_shadow", "Shadow rays"),
-              ("rays_ignored", "Rays ignored"), ("box_tests", "Box tests"), ("triangle_tests", "Triangles tested"),
-              ("build_seconds", "Build (s)"), ("render_seconds", "Render (s)"), ("memory_bytes", "Memory (bytes)"))
-
     def draw(self, context):
-        stats = context.scene.get("raylab_last_render")
-        layout = self.layout
-        if stats is None:
-            layout.label(text="No raylab render yet (F12 with the raylab engine)")
+        record = context.scene.get("raylab_last_render")
+        if record is None:
+            self.layout.label(text="No raylab render yet (F12 with the raylab engine)")
             return
-        column = layout.column(align=True)
-        for key, label in self.FIELDS:
-            if key in stats:
-                value = stats[key]
-                text = f"{value:.3f}" if isinstance(value, float) else f"{value:,}" if isinstance(value, int) else str(value)
-                row = column.row()
-                row.label(text=label)
-                row.label(text=text)
+        render_stats.draw(self.layout, record)
 
 
 CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_last_render)

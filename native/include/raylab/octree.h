@@ -51,7 +51,7 @@ inline Bounds octant_bounds(const Bounds& box, int octant) {
 class Octree final : public StructureBase<Octree> {
  public:
   // BuildSettings::validate's limit on max_depth; it sizes the traversal stack.
-  static constexpr int kMaxDepth = 16;
+  static constexpr int kMaxDepth = BuildSettings::kMaxDepthLimit;
 
   // Throws BuildError as soon as the build would need more than settings.memory_budget bytes.
   Octree(MeshPtr mesh, const BuildSettings& settings);

@@ -1,4 +1,4 @@
-// The one interface behind which the four acceleration structures live: none, aabb, octree, bvh.
+// The one interface behind which the acceleration structures live, and the table that names them.
 #pragma once
 
 #include "raylab/geometry.h"
@@ -16,10 +16,10 @@ namespace raylab {
 
 enum class StructureKind { None, Aabb, Octree, Bvh };
 
-StructureKind structure_kind_from_name(const std::string& name);  // throws std::invalid_argument
-const char* structure_kind_name(StructureKind kind);
-
 struct BuildSettings {
+  // The deepest octree the traversal's stack is sized for.
+  static constexpr int kMaxDepthLimit = 16;
+
   StructureKind kind = StructureKind::Bvh;
   int max_depth = 6;   // octree: depth 0 is the root alone
   int leaf_size = 8;   // octree: split while a node holds more triangles than this; bvh: max per leaf
@@ -28,6 +28,31 @@ struct BuildSettings {
 
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
+
+class Structure;
+
+// One row per structure kind: everything the bindings, the add-on and the benchmark need to know about
+// it, read from here (the Python module exports the table as _raylab.STRUCTURES). Adding a structure
+// is its own header and source, an enum value above, and a row in kStructures (structure.cpp).
+struct StructureInfo {
+  StructureKind kind;
+  const char* name;         // the API's name, e.g. "bvh"
+  const char* label;        // for menus and tables, e.g. "BVH"
+  const char* description;  // one sentence, for tooltips
+  const char* root_name;    // what a ray that misses everything missed, e.g. "the BVH root"
+  bool uses_max_depth;      // whether BuildSettings::max_depth changes the build
+  bool uses_leaf_size;      // whether BuildSettings::leaf_size changes the build
+  bool uses_top_level;      // in a Scene: a BVH over the instances' world boxes decides which to visit
+  bool has_boxes;           // whether it has boxes to draw
+  std::unique_ptr<Structure> (*build)(MeshPtr mesh, const BuildSettings& settings);
+};
+
+std::span<const StructureInfo> structure_kinds();
+const StructureInfo& structure_info(StructureKind kind);
+// Throws std::invalid_argument listing the known names.
+const StructureInfo& structure_info(const std::string& name);
+inline StructureKind structure_kind_from_name(const std::string& name) { return structure_info(name).kind; }
+inline const char* structure_kind_name(StructureKind kind) { return structure_info(kind).name; }
 
 // A build that cannot be done within the settings (e.g. over the memory budget).
 struct BuildError : std::runtime_error {

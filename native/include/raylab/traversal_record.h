@@ -1,7 +1,7 @@
 // What a traversal reports about its work. Every structure writes one traversal template,
 // parameterised by a recorder; the three recorders below give the three uses of that one code path:
 //   NoRecord      the fast path: every call is empty and compiles away (counting off costs nothing);
-//   StatsRecord   the counters of DESIGN.md (rays, rays ignored, box tests, triangle tests, nodes);
+//   StatsRecord   the counters (kCounters below: rays, rays ignored, box, triangle and node counts);
 //   StoryRecord   the single-ray story the levels draw: every box, node and triangle in order.
 #pragma once
 
@@ -20,15 +20,33 @@ struct TraversalStats {
   uint64_t triangle_tests = 0;
   uint64_t nodes_visited = 0;
 
-  TraversalStats& operator+=(const TraversalStats& o) {
-    rays += o.rays;
-    rays_ignored += o.rays_ignored;
-    box_tests += o.box_tests;
-    triangle_tests += o.triangle_tests;
-    nodes_visited += o.nodes_visited;
-    return *this;
-  }
+  TraversalStats& operator+=(const TraversalStats& o);
 };
+
+// The counters, once. `+=`, the Scene's adding up of its instances' work, the Python dicts and the
+// add-on's tables all go through this list (exported as _raylab.COUNTERS); a new counter is a field
+// above, a row here and the recorder call that counts it.
+struct CounterInfo {
+  const char* name;                 // the key in Python dicts
+  uint64_t TraversalStats::*field;
+  const char* label;                // for tables
+  const char* description;          // for tooltips
+  bool object_work;                 // counted inside an object's structure (a Scene adds it up per instance)
+};
+
+inline constexpr CounterInfo kCounters[] = {
+    {"rays", &TraversalStats::rays, "Rays", "Rays traced", false},
+    {"rays_ignored", &TraversalStats::rays_ignored, "Rays ignored",
+     "Rays that missed the root box (or every object's AABB) and tested no triangle", false},
+    {"box_tests", &TraversalStats::box_tests, "Box tests", "Ray/box tests", true},
+    {"triangle_tests", &TraversalStats::triangle_tests, "Triangle tests", "Ray/triangle tests", true},
+    {"nodes_visited", &TraversalStats::nodes_visited, "Nodes visited", "Nodes the traversal entered", true},
+};
+
+inline TraversalStats& TraversalStats::operator+=(const TraversalStats& o) {
+  for (const CounterInfo& c : kCounters) this->*c.field += o.*c.field;
+  return *this;
+}
 
 // The recorder interface (duck-typed, resolved at compile time):
 //   ray()                                   once per query

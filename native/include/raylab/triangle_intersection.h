@@ -7,11 +7,46 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace raylab {
 
 enum class TriangleTest { Watertight, MollerTrumbore };
+
+// The names of the tests, once: the bindings parse and print them and export the table to Python
+// (_raylab.TRIANGLE_TESTS), where the add-on's menus and the leak experiment read it.
+struct TriangleTestInfo {
+  TriangleTest test;
+  const char* name;
+  const char* label;
+  const char* description;
+};
+
+inline constexpr TriangleTestInfo kTriangleTests[] = {
+    {TriangleTest::Watertight, "watertight", "Watertight",
+     "Woop, Benthin and Wald (2013), decided in double precision: a ray through a shared edge never slips "
+     "between its two triangles"},
+    {TriangleTest::MollerTrumbore, "moller_trumbore", "Möller–Trumbore",
+     "The classic test, fast but leaky: rays through shared edges and vertices can miss both triangles"},
+};
+
+inline const char* triangle_test_name(TriangleTest test) {
+  for (const TriangleTestInfo& info : kTriangleTests)
+    if (info.test == test) return info.name;
+  return "?";
+}
+
+// Throws std::invalid_argument listing the known names.
+inline TriangleTest triangle_test_from_name(const std::string& name) {
+  std::string names;
+  for (const TriangleTestInfo& info : kTriangleTests) {
+    if (name == info.name) return info.test;
+    names += (names.empty() ? "" : " or ") + std::string(info.name);
+  }
+  throw std::invalid_argument("unknown triangle_test '" + name + "': expected " + names);
+}
 
 // The per-ray part of the watertight test: the shear that maps the ray onto the +z axis, in float
 // for the filter and in double for the decision.
