@@ -9,46 +9,47 @@
 
 #include <pybind11/pybind11.h>
 
+#include <span>
+#include <utility>
+
 namespace py = pybind11;
 
 namespace raylab::python {
 
+namespace {
+
+template <class Row, class Member>
+std::pair<const char*, Member Row::*> field(const char* name, Member Row::*member) {
+  return {name, member};
+}
+
+// A table of rows as a tuple of dicts with the given fields.
+template <class Row, class... Members>
+py::tuple table(std::span<const Row> rows, std::pair<const char*, Members Row::*>... fields) {
+  py::list out;
+  for (const Row& row : rows) {
+    py::dict d;
+    ((d[fields.first] = row.*fields.second), ...);
+    out.append(d);
+  }
+  return py::tuple(out);
+}
+
+}  // namespace
+
 void bind_vocabulary(py::module_& m) {
-  py::list structures;
-  for (const StructureInfo& s : structure_kinds()) {
-    py::dict d;
-    d["name"] = s.name;
-    d["label"] = s.label;
-    d["description"] = s.description;
-    d["root_name"] = s.root_name;
-    d["uses_max_depth"] = s.uses_max_depth;
-    d["uses_leaf_size"] = s.uses_leaf_size;
-    d["uses_top_level"] = s.uses_top_level;
-    d["has_boxes"] = s.has_boxes;
-    structures.append(d);
-  }
-  m.attr("STRUCTURES") = py::tuple(structures);
-
-  py::list tests;
-  for (const TriangleTestInfo& t : kTriangleTests) {
-    py::dict d;
-    d["name"] = t.name;
-    d["label"] = t.label;
-    d["description"] = t.description;
-    tests.append(d);
-  }
-  m.attr("TRIANGLE_TESTS") = py::tuple(tests);
-
-  py::list counters;
-  for (const CounterInfo& c : kCounters) {
-    py::dict d;
-    d["name"] = c.name;
-    d["label"] = c.label;
-    d["description"] = c.description;
-    d["object_work"] = c.object_work;
-    counters.append(d);
-  }
-  m.attr("COUNTERS") = py::tuple(counters);
+  using S = StructureInfo;
+  m.attr("STRUCTURES") =
+      table(structure_kinds(), field("name", &S::name), field("label", &S::label),
+            field("description", &S::description), field("root_name", &S::root_name),
+            field("uses_max_depth", &S::uses_max_depth), field("uses_leaf_size", &S::uses_leaf_size),
+            field("uses_top_level", &S::uses_top_level), field("has_boxes", &S::has_boxes));
+  using T = TriangleTestInfo;
+  m.attr("TRIANGLE_TESTS") = table(std::span<const T>(kTriangleTests), field("name", &T::name),
+                                   field("label", &T::label), field("description", &T::description));
+  using C = CounterInfo;
+  m.attr("COUNTERS") = table(std::span<const C>(kCounters), field("name", &C::name), field("label", &C::label),
+                             field("description", &C::description), field("object_work", &C::object_work));
 
   const BuildSettings defaults;
   py::dict d;

@@ -21,22 +21,6 @@ Ray to_object(const SceneInstance& inst, const Ray& ray, float tmax) {
   return r;
 }
 
-// Runs a query on one instance's structure, adding its work (not its ray count) to the record;
-// `entered` becomes true when the object's structure did not ignore the ray.
-template <class Recorder, class Query>
-auto counted(Recorder& record, bool& entered, Query query) {
-  if constexpr (Recorder::kActive) {
-    TraversalStats s;
-    const auto result = query(&s);
-    if (s.rays_ignored == 0) entered = true;
-    for (const CounterInfo& c : kCounters)
-      if (c.object_work) record.stats.*c.field += s.*c.field;
-    return result;
-  } else {
-    return query(nullptr);
-  }
-}
-
 }  // namespace
 
 // The world box of an object box under an affine transform, from its eight corners, widened by a
@@ -118,17 +102,34 @@ void SceneSnapshot::traverse(const Ray& ray, Recorder& record, float& tmax, Visi
   }
 }
 
+template <class Recorder, class Query>
+bool SceneSnapshot::query_instance(uint32_t k, const Ray& ray, float limit, Recorder& record, bool& entered,
+                                   Query query) const {
+  const SceneInstance& inst = instances_[k];
+  const Structure& s = *meshes_[inst.instance.mesh].structure;
+  const Ray r = to_object(inst, ray, limit);
+  if constexpr (Recorder::kActive) {
+    TraversalStats counts;
+    const bool found = query(s, r, &counts);
+    if (counts.rays_ignored == 0) entered = true;
+    for (const CounterInfo& c : kCounters)
+      if (c.object_work) record.stats.*c.field += counts.*c.field;
+    return found;
+  } else {
+    return query(s, r, nullptr);
+  }
+}
+
 template <class Recorder>
 bool SceneSnapshot::closest(const Ray& ray, Hit& hit, Recorder& record) const {
   Hit best = initial_hit(ray);
   float tmax = ray.tmax;
   bool entered = false;
   traverse(ray, record, tmax, [&](uint32_t k, float limit) {
-    const SceneInstance& inst = instances_[k];
-    const Structure& s = *meshes_[inst.instance.mesh].structure;
-    const Ray r = to_object(inst, ray, limit);
     Hit h;
-    const bool found = counted(record, entered, [&](TraversalStats* st) { return st ? s.closest(r, h, *st) : s.closest(r, h); });
+    const bool found = query_instance(k, ray, limit, record, entered, [&](const Structure& s, const Ray& r, TraversalStats* st) {
+      return st ? s.closest(r, h, *st) : s.closest(r, h);
+    });
     // Equal t across instances: the lower instance index wins, whatever the visiting order.
     if (found && (h.t < best.t || (h.t == best.t && k < best.instance))) {
       best = h;
@@ -148,10 +149,9 @@ bool SceneSnapshot::any(const Ray& ray, Recorder& record) const {
   float tmax = ray.tmax;
   bool entered = false;
   traverse(ray, record, tmax, [&](uint32_t k, float limit) {
-    const SceneInstance& inst = instances_[k];
-    const Structure& s = *meshes_[inst.instance.mesh].structure;
-    const Ray r = to_object(inst, ray, limit);
-    found = counted(record, entered, [&](TraversalStats* st) { return st ? s.any(r, *st) : s.any(r); });
+    found = query_instance(k, ray, limit, record, entered, [&](const Structure& s, const Ray& r, TraversalStats* st) {
+      return st ? s.any(r, *st) : s.any(r);
+    });
     return found ? -kInfinity : limit;
   });
   if (!entered) record.ignored();

@@ -36,7 +36,7 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         if result.cancelled:
             self.update_stats("", f"raylab {props.structure}: cancelled")
             return
-        scene.original["raylab_last_render"] = render_stats.record(result.stats, props.super_sampling)
+        scene.original[render_stats.LAST_RENDER] = render_stats.record(result.stats, props.super_sampling)
         line = render_stats.line(result.stats)
         # The info text is printed by background renders but cleared from the render window when the
         # render ends; the result's message (error_set) is what the window keeps showing after it.
@@ -89,11 +89,7 @@ class RAYLAB_PT_render_stats(RaylabRenderPanel, bpy.types.Panel):
     bl_label = "raylab Last Render"
 
     def draw(self, context):
-        record = context.scene.get("raylab_last_render")
-        if record is None:
-            self.layout.label(text="No raylab render yet (F12)")
-            return
-        render_stats.draw(self.layout, record)
+        render_stats.draw_last(self.layout, context.scene)
 
 
 # Blender's own panels (format, output, lens, light, ...) that list BLENDER_RENDER, shown for raylab too.

@@ -61,8 +61,20 @@ def line(stats):
             f"{human_count(stats['triangle_tests'])} triangle tests")
 
 
+LAST_RENDER = "raylab_last_render"  # the scene's ID property holding the last F12's record
+
+
+def draw_last(layout, scene):
+    """The Last Render panels, in the Render Properties and in the viewport sidebar."""
+    record = scene.get(LAST_RENDER)
+    if record is None:
+        layout.label(text="No raylab render yet (F12 with the raylab engine)")
+    else:
+        draw(layout, record)
+
+
 def draw(layout, record):
-    """Label rows for one stored record, in the Render Properties and in the viewport sidebar."""
+    """Label rows for one stored record."""
     column = layout.column(align=True)
     column.label(text=f"{record['structure']}, {size_text(record)}")
     for label, text in rows(record):

@@ -90,11 +90,7 @@ class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
     bl_label = "Last render"
 
     def draw(self, context):
-        record = context.scene.get("raylab_last_render")
-        if record is None:
-            self.layout.label(text="No raylab render yet (F12 with the raylab engine)")
-            return
-        render_stats.draw(self.layout, record)
+        render_stats.draw_last(self.layout, context.scene)
 
 
 CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_last_render)

@@ -63,6 +63,11 @@ class SceneSnapshot {
   friend class Scene;  // reuses the top level of the last snapshot when no instance box changed
   template <class Recorder, class Visit>
   void traverse(const Ray& ray, Recorder& record, float& tmax, Visit visit) const;
+  // Runs `query(structure, object_ray, stats)` on instance k, the ray moved to its object space with
+  // the far limit `limit`; its work goes into the record, and `entered` becomes true unless the
+  // object's structure ignored the ray.
+  template <class Recorder, class Query>
+  bool query_instance(uint32_t k, const Ray& ray, float limit, Recorder& record, bool& entered, Query query) const;
   template <class Recorder>
   bool closest(const Ray& ray, Hit& hit, Recorder& record) const;
   template <class Recorder>
