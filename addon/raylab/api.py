@@ -19,7 +19,7 @@ from . import _raylab
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
     "DEFAULTS", "BuildError", "load_mesh", "build", "build_file",
-    "Structure", "Scene", "Hits", "Occlusion", "RayStory", "render", "write_image",
+    "Structure", "Scene", "Hits", "Occlusion", "RayStory", "render", "camera_rays", "write_image",
 ]
 
 # The core's vocabularies (native/python/vocabulary.cpp), never listed again in Python.
@@ -212,6 +212,14 @@ class Scene:
 
 # The renderer (native/python/render_bindings.cpp) takes a Scene above or its native scene.
 render = _raylab.render
+
+
+def camera_rays(camera, points):
+    """The renderer's own camera rays through (N,2) raster points of a camera dict (as render() takes
+    it; x to the right, y down from the top edge, pixel (i, j) centred at (i + 0.5, j + 0.5)): world
+    ((N,3) origins, (N,3) unit directions), float32."""
+    rays = _raylab.camera_rays(camera, points)
+    return rays["origins"], rays["directions"]
 
 
 def write_image(path, image):

@@ -357,6 +357,39 @@ void bind_render(py::module_& m) {
                (r.cancelled ? " cancelled>" : ">");
       });
 
+  m.def(
+      "camera_rays",
+      [](py::handle camera_dict, py::handle points) {
+        const Camera camera(camera_from_dict(camera_dict));
+        auto raster = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(points);
+        if (!raster || raster.ndim() != 2 || raster.shape(1) != 2)
+          throw std::invalid_argument("points must be an (N, 2) array of raster coordinates");
+        const py::ssize_t n = raster.shape(0);
+        py::array_t<float> origins({n, py::ssize_t(3)}), directions({n, py::ssize_t(3)});
+        float* o = origins.mutable_data();
+        float* d = directions.mutable_data();
+        for (py::ssize_t i = 0; i < n; ++i) {
+          const double x = raster.at(i, 0), y = raster.at(i, 1);
+          if (!std::isfinite(x) || !std::isfinite(y))
+            throw std::invalid_argument("points must be finite; row " + std::to_string(i) + " is not");
+          const Ray r = camera.ray(float(x), float(y));
+          for (int c = 0; c < 3; ++c) {
+            o[3 * i + c] = r.origin[c];
+            d[3 * i + c] = r.direction[c];
+          }
+        }
+        py::dict out;
+        out["origins"] = origins;
+        out["directions"] = directions;
+        out["width"] = camera.width();
+        out["height"] = camera.height();
+        return out;
+      },
+      py::arg("camera"), py::arg("points"),
+      "The renderer's own camera rays: unit world rays through (N, 2) raster points (x to the right, y down "
+      "from the top edge; pixel (i, j) has its centre at (i + 0.5, j + 0.5)) of a camera dict as render "
+      "takes it. Returns origins, directions, and the image's width and height.");
+
   m.def("render", &render_from_python, py::arg("scene"), py::arg("camera"), py::arg("lights"), py::arg("materials"),
         py::arg("settings") = py::none(), py::arg("progress") = py::none(),
         "Renders a committed raylab.Scene; progress(fraction) is called several times a second and "

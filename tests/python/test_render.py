@@ -119,8 +119,27 @@ def test_every_structure_renders_the_same_image(result):
         assert other.stats["rays_shadow"] == result.stats["rays_shadow"], structure
 
 
+def test_camera_rays_are_the_renderers_primary_rays(scene, result):
+    # Tracing the camera's rays through every pixel centre finds what the render's primary hits found:
+    # the probe and the renderer share this one camera model.
+    camera, _, _ = make_view()
+    ys, xs = np.mgrid[0:H, 0:W]
+    origins, directions = raylab.camera_rays(camera, np.column_stack([xs.ravel(), ys.ravel()]) + 0.5)
+    assert origins.shape == directions.shape == (W * H, 3)
+    assert np.allclose(np.linalg.norm(directions, axis=1), 1.0, atol=1e-6)
+    hits = scene.intersect(origins, directions, tmin=camera["clip_start"])
+    assert np.array_equal(hits.instance.reshape(H, W), result.instance)
+    near = result.instance >= 0
+    assert np.allclose(hits.t.reshape(H, W)[near], result.distance[near], rtol=1e-5)
+    with pytest.raises(ValueError, match="points"):
+        raylab.camera_rays(camera, np.zeros((4, 3)))
+    with pytest.raises(ValueError, match="finite"):
+        raylab.camera_rays(camera, [[np.nan, 0.0]])
+
+
 def test_stats_count_the_rays(scene, result):
     s = result.stats
+    assert s["rays"] == sum(s[k] for k in ("rays_primary", "rays_shadow", "rays_reflection", "rays_refraction"))
     assert (s["width"], s["height"]) == (W, H)
     assert s["rays_primary"] == W * H
     assert 0 < s["rays_shadow"] <= W * H + s["rays_reflection"]  # one light: at most one per hit

@@ -16,7 +16,7 @@ import bpy
 import numpy as np
 
 from .. import api
-from . import overlay, structure_cache
+from . import overlay, scene_export, structure_cache
 
 STATUSES = ("missed_root", "missed_nodes", "missed_triangles", "hit_object")  # in rising priority
 STATUS_COLORS = {
@@ -52,12 +52,6 @@ def _scene_of(context_or_scene):
     return context_or_scene if isinstance(context_or_scene, bpy.types.Scene) else context_or_scene.scene
 
 
-def _camera_frame(scene, camera):
-    """Camera-space (left, right, bottom, top, z) of the image plane, from Blender's own frame."""
-    frame = np.array([tuple(v) for v in camera.data.view_frame(scene=scene)])
-    return frame[:, 0].min(), frame[:, 0].max(), frame[:, 1].min(), frame[:, 1].max(), frame[0, 2]
-
-
 def render_size(scene):
     r = scene.render
     return (max(1, round(r.resolution_x * r.resolution_percentage / 100)),
@@ -66,22 +60,9 @@ def render_size(scene):
 
 def camera_rays(scene, pixels):
     """World rays (origins (N,3), unit directions (N,3)) through pixel centres (N,2) (x from the
-    left, y from the top, in the render's pixels)."""
-    camera = scene.camera
-    width, height = render_size(scene)
-    left, right, bottom, top, z = _camera_frame(scene, camera)
+    left, y from the top, in the render's pixels): the renderer's own camera model."""
     pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-    x = left + (pixels[:, 0] + 0.5) / width * (right - left)
-    y = top - (pixels[:, 1] + 0.5) / height * (top - bottom)
-    matrix = structure_cache.matrix_of(camera)
-    if camera.data.type == 'ORTHO':
-        local = np.stack([x, y, np.zeros_like(x)], axis=1)
-        origins = structure_cache.transform_points(matrix, local)
-        directions = np.tile(matrix[:3, :3] @ (0.0, 0.0, -1.0), (len(x), 1))
-    else:
-        origins = np.tile(matrix[:3, 3], (len(x), 1))
-        directions = np.stack([x, y, np.full_like(x, z)], axis=1) @ matrix[:3, :3].T
-    return origins, directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    return api.camera_rays(scene_export.camera_dict(scene, scene.camera), pixels + 0.5)
 
 
 def _object_rays(obj, directions_local):
@@ -102,10 +83,12 @@ def probe_rays(scene, fan=False):
     if settings.probe_source == 'CAMERA':
         if scene.camera is None:
             return None, None, "No camera in the scene"
-        if fan:
-            width, height = render_size(scene)
-            return (*camera_rays(scene, grid * (width, height) - 0.5), None)
-        return (*camera_rays(scene, [(settings.probe_pixel_x, settings.probe_pixel_y)]), None)
+        width, height = render_size(scene)
+        pixels = grid * (width, height) - 0.5 if fan else [(settings.probe_pixel_x, settings.probe_pixel_y)]
+        try:
+            return (*camera_rays(scene, pixels), None)
+        except (scene_export.ExportError, ValueError) as error:  # not a camera raylab can model
+            return None, None, str(error)
     obj = settings.probe_object
     if obj is None:
         return None, None, "No ray object: pick one, or add one with the button"

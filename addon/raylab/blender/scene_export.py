@@ -76,11 +76,15 @@ def export_scene(depsgraph):
 
 
 def export_camera(depsgraph):
-    """The renderer's camera dict: Blender's camera model (sensor fit, shift, ortho, resolution)."""
+    """The renderer's camera dict for the scene camera, evaluated (see camera_dict)."""
     scene = depsgraph.scene
     if scene.camera is None:
         raise ExportError("The scene has no active camera: add a camera and make it the scene camera")
-    camera = scene.camera.evaluated_get(depsgraph)
+    return camera_dict(scene, scene.camera.evaluated_get(depsgraph))
+
+
+def camera_dict(scene, camera):
+    """The renderer's camera dict: Blender's camera model (sensor fit, shift, ortho, resolution)."""
     if camera.type != 'CAMERA':
         raise ExportError(f"The scene camera '{camera.name}' is not a camera object")
     data, render = camera.data, scene.render
