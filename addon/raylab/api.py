@@ -18,8 +18,8 @@ from . import _raylab
 
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
-    "DEFAULTS", "BuildError", "load_mesh", "build", "build_file",
-    "Structure", "Scene", "Hits", "Occlusion", "RayStory", "render", "camera_rays", "write_image",
+    "DEFAULTS", "RAY_STATUSES", "BuildError", "load_mesh", "build", "build_file",
+    "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "render", "camera_rays", "write_image",
 ]
 
 # The core's vocabularies (native/python/vocabulary.cpp), never listed again in Python.
@@ -30,6 +30,7 @@ TRIANGLE_TESTS = tuple(TRIANGLE_TEST_INFO)                     # ("watertight", 
 COUNTER_INFO = {c["name"]: c for c in _raylab.COUNTERS}      # the keys of every stats dict, in order
 COUNTERS = tuple(COUNTER_INFO)
 DEFAULTS = dict(_raylab.BUILD_DEFAULTS)                        # structure, max_depth, leaf_size, ...
+RAY_STATUSES = _raylab.RAY_STATUSES                            # a story's status, in rising priority
 BuildError = _raylab.BuildError
 
 _D = DEFAULTS
@@ -52,6 +53,16 @@ class Hits(_Record):
     """Closest hits of N rays: t (inf on miss), triangle, u, v, instance (-1 on miss), hit, stats."""
 
     __slots__ = ("t", "triangle", "u", "v", "instance", "hit", "stats")
+
+    def __len__(self):
+        return len(self.t)
+
+
+class Statuses(_Record):
+    """Closest hits of N rays with each ray's status: status (N,) int8, an index into RAY_STATUSES;
+    t, triangle, u, v, hit as in Hits."""
+
+    __slots__ = ("status", "t", "triangle", "u", "v", "hit")
 
     def __len__(self):
         return len(self.t)
@@ -118,6 +129,11 @@ class Structure:
     def boxes(self):
         """The boxes: dict lo (B,3) f32, hi (B,3) f32, depth (B,) i32, leaf (B,) bool, triangle_count (B,) u32."""
         return self.native.boxes()
+
+    def statuses(self, origins, directions, tmin=0.0, tmax=math.inf):
+        """Closest hits of N rays plus each ray's status, what its story would say without recording
+        it. Returns Statuses."""
+        return Statuses(self.native.statuses(origins, directions, tmin, tmax))
 
     def story(self, origin, direction, tmin=0.0, tmax=math.inf):
         """The whole closest-hit story of one ray given as (3,) origin and direction."""

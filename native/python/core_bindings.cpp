@@ -122,6 +122,20 @@ py::dict story(const Structure& s, py::handle origin, py::handle direction, py::
   return d;
 }
 
+// Closest hits plus each ray's status as an index into RAY_STATUSES.
+py::dict statuses(const Structure& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax) {
+  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
+  std::vector<Hit> hits(rays.size());
+  std::vector<RayStatus> status(rays.size());
+  {
+    py::gil_scoped_release release;
+    intersect_with_status(s, rays, hits, status);
+  }
+  py::dict d = hits_to_dict(hits, true);
+  d["status"] = column<int8_t>(status, [](RayStatus r) { return int8_t(r); });
+  return d;
+}
+
 }  // namespace
 
 void bind_core(py::module_& m) {
@@ -149,6 +163,8 @@ void bind_core(py::module_& m) {
       .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false)
       .def("boxes", &boxes)
+      .def("statuses", &statuses, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
+           py::arg("tmax") = kNoLimit)
       .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit);
 

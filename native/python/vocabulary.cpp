@@ -1,5 +1,5 @@
 // The core's vocabularies, exported once so that Python never lists them again: the structure kinds,
-// the triangle tests, the counters and the build defaults. api.py, the add-on's menus and panels, the
+// the triangle tests, the counters, the ray statuses and the build defaults. api.py, the add-on's menus and panels, the
 // compare table, the benchmark and the tests read these.
 #include "bindings.h"
 
@@ -8,8 +8,12 @@
 #include "raylab/triangle_intersection.h"
 
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
+#include <iterator>
 #include <span>
+#include <string>
+#include <vector>
 #include <utility>
 
 namespace py = pybind11;
@@ -50,6 +54,8 @@ void bind_vocabulary(py::module_& m) {
   using C = CounterInfo;
   m.attr("COUNTERS") = table(std::span<const C>(kCounters), field("name", &C::name), field("label", &C::label),
                              field("description", &C::description), field("object_work", &C::object_work));
+
+  m.attr("RAY_STATUSES") = py::tuple(py::cast(std::vector<std::string>(std::begin(kRayStatusNames), std::end(kRayStatusNames))));
 
   const BuildSettings defaults;
   py::dict d;

@@ -51,16 +51,6 @@ const StructureInfo& structure_info(const std::string& name) {
   throw std::invalid_argument("unknown structure '" + name + "': expected one of " + names);
 }
 
-const char* ray_status_name(RayStatus status) {
-  switch (status) {
-    case RayStatus::MissedRoot: return "missed_root";
-    case RayStatus::MissedNodes: return "missed_nodes";
-    case RayStatus::MissedTriangles: return "missed_triangles";
-    case RayStatus::HitObject: return "hit_object";
-  }
-  return "?";
-}
-
 void BuildSettings::validate() const {
   if (max_depth < 0) throw std::invalid_argument("max_depth must be >= 0, got " + std::to_string(max_depth));
   if (max_depth > kMaxDepthLimit)
@@ -96,6 +86,19 @@ void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
   for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) {
     occluded[i] = st ? s.any(rays[i], *st) : s.any(rays[i]);
+  });
+}
+
+void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
+                           std::span<RayStatus> statuses) {
+  if (hits.size() != rays.size() || statuses.size() != rays.size())
+    throw std::invalid_argument("hits, statuses and rays differ in length");
+  for_each_ray(rays.size(), nullptr, [&](size_t i, TraversalStats*) {
+    TraversalStats own;  // this ray's counters alone
+    Hit h;
+    const bool hit = s.closest(rays[i], h, own);
+    hits[i] = h;
+    statuses[i] = ray_status(hit, own.rays_ignored > 0, own.triangle_tests > 0);
   });
 }
 

@@ -455,3 +455,18 @@ def test_intersect_releases_the_gil():
         stop.set()
         worker.join()
     assert during > 0
+
+
+@pytest.mark.parametrize("structure", STRUCTURES)
+def test_batch_statuses_say_what_each_rays_story_says(sphere, structure):
+    s = raylab.build(*sphere, structure=structure, max_depth=4, leaf_size=3)
+    rng = np.random.default_rng(11)
+    origins = rng.uniform(-3, 3, (400, 3)).astype(np.float32)
+    directions = rng.normal(size=(400, 3)).astype(np.float32)
+    batch = s.statuses(origins, directions)
+    hits = s.intersect(origins, directions)
+    assert np.array_equal(batch.t, hits.t) and np.array_equal(batch.triangle, hits.triangle)
+    stories = [s.story(o, d) for o, d in zip(origins, directions)]
+    assert [raylab.RAY_STATUSES[k] for k in batch.status] == [st.status for st in stories]
+    seen = {raylab.RAY_STATUSES[k] for k in batch.status}
+    assert "hit_object" in seen and ("missed_root" in seen or structure == "none")

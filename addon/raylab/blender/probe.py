@@ -18,7 +18,7 @@ import numpy as np
 from .. import api
 from . import overlay, scene_export, structure_cache
 
-STATUSES = ("missed_root", "missed_nodes", "missed_triangles", "hit_object")  # in rising priority
+STATUSES = api.RAY_STATUSES  # in rising priority
 STATUS_COLORS = {
     "missed_root": (0.62, 0.62, 0.70, 1.0),
     "missed_nodes": (1.00, 0.55, 0.10, 1.0),
@@ -30,7 +30,6 @@ MISSED_BOX_COLOR = (1.0, 0.3, 0.25, 0.55)
 ENTRY_COLOR = (1.0, 1.0, 1.0, 1.0)
 HIT_COLOR = (1.0, 0.15, 0.55, 1.0)
 TEXT_COLOR = (0.92, 0.92, 0.92, 1.0)
-FAN_STORY_LIMIT = 64       # fans of at most this many rays tell a story per ray
 FAN_OBJECT_HALF_ANGLE = math.radians(20.0)  # the ray object's fan: a 40° pyramid around its -Z axis
 
 
@@ -200,44 +199,10 @@ def _traced_fan(targets, entries, fan):
 
 
 def fan_statuses(traced):
-    """Per ray of a fan, the index into STATUSES for one object, and the hit distance (inf on miss).
-
-    Small fans ask the story of every ray. Large ones trace all rays in one intersect call; a hit is
-    'hit_object'; a miss that clearly misses the root box is 'missed_root'; the other misses are
-    asked one by one with counting on, whose counters are the story's (a ray that tested triangles
-    and hit none is 'missed_triangles'), so both ways give the story's status."""
-    structure = traced.entry.structure
-    origins, directions = traced.origins, traced.directions
-    if len(origins) <= FAN_STORY_LIMIT:
-        stories = [structure.story(o, d) for o, d in zip(origins, directions)]
-        codes = np.array([STATUSES.index(st.status) for st in stories])
-        t = np.array([st.hit["t"] if st.hit is not None else np.inf for st in stories])
-        return codes, t
-    hits = structure.intersect(origins, directions)
-    codes = np.full(len(origins), 3)
-    undecided = np.flatnonzero(~hits.hit)
-    boxes = traced.entry.boxes()
-    root = np.flatnonzero(boxes["depth"] == 0)
-    if len(root):
-        lo, hi = boxes["lo"][root[0]], boxes["hi"][root[0]]
-        margin = 1e-4 * max(float(np.max(hi - lo)), 1e-6)
-        clear_miss = ~_slab_hits(origins[undecided], directions[undecided], lo - margin, hi + margin)
-        codes[undecided[clear_miss]] = 0
-        undecided = undecided[~clear_miss]
-    for i in undecided:
-        counts = structure.intersect(origins[i], directions[i], count=True).stats
-        codes[i] = 0 if counts["rays_ignored"] else 2 if counts["triangle_tests"] else 1
-    return codes, hits.t.astype(np.float64)
-
-
-def _slab_hits(origins, directions, lo, hi):
-    """Whether rays (t >= 0) meet the box [lo, hi]; only used with a margin to skip sure misses."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / directions
-        t0, t1 = (lo - origins) * inv, (hi - origins) * inv
-        near = np.nanmax(np.minimum(t0, t1), axis=1)
-        far = np.nanmin(np.maximum(t0, t1), axis=1)
-    return (near <= far) & (far >= 0.0)
+    """Per ray of a fan, the index into STATUSES for one object, and the hit distance (inf on miss):
+    the core's statuses, what each ray's story would say."""
+    result = traced.entry.structure.statuses(traced.origins, traced.directions)
+    return result.status.astype(int), result.t.astype(np.float64)
 
 
 def _trace_fan(traced, fan, length):

@@ -143,5 +143,9 @@ void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<
                        TraversalStats* stats);
 void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
                    TraversalStats* stats);
+// Closest hits and each ray's status (what its story would say, without recording the story): the
+// probe's fan of thousands of rays.
+void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
+                           std::span<RayStatus> statuses);
 
 }  // namespace raylab

@@ -81,7 +81,16 @@ enum class RayStatus {
   HitObject,          // hit a triangle of the object
 };
 
-const char* ray_status_name(RayStatus status);
+// The names, in the enum's order (rising priority: over several objects the highest one is the ray's).
+inline constexpr const char* kRayStatusNames[] = {"missed_root", "missed_nodes", "missed_triangles", "hit_object"};
+inline const char* ray_status_name(RayStatus status) { return kRayStatusNames[int(status)]; }
+
+// A ray's status from what its one query did: the story and the batch statuses derive it alike.
+inline RayStatus ray_status(bool hit, bool ignored, bool tested_triangles) {
+  if (hit) return RayStatus::HitObject;
+  if (ignored) return RayStatus::MissedRoot;
+  return tested_triangles ? RayStatus::MissedTriangles : RayStatus::MissedNodes;
+}
 
 struct StoryBox {
   uint32_t node;
@@ -112,12 +121,7 @@ struct RayStory {
   bool ignored = false;
 
   // Derives the status from what was recorded: the story, not a second computation.
-  void finish() {
-    if (hit.valid()) status = RayStatus::HitObject;
-    else if (ignored) status = RayStatus::MissedRoot;
-    else if (!triangles.empty()) status = RayStatus::MissedTriangles;
-    else status = RayStatus::MissedNodes;
-  }
+  void finish() { status = ray_status(hit.valid(), ignored, !triangles.empty()); }
 };
 
 struct StoryRecord {
