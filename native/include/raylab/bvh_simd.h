@@ -125,12 +125,15 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   if (candidates == 0) return 0;  // the common case: the ray passes beside all four
   // The hit's t is a convex combination of the corners' sheared z (to a few ulp): a lane whose z
   // range lies wholly beyond tmax or at or before tmin cannot hit. The 2^-20 margin exceeds the float
-  // z's rounding and the double t's many times over; NaN compares false and keeps the lane.
+  // z's relative rounding and the double t's many times over; the FLT_MIN term covers a z or t below
+  // about 2^-130, whose rounding is absolute (2^-150, denormal) and where the relative margin
+  // underflows to nothing (without it a lane hit at t = tmax was rejected: the float z came out one
+  // denormal ulp above the t rounded from double). NaN compares false and keeps the lane.
   const __m128 z0 = _mm_mul_ps(r.sz, ez[0]), z1 = _mm_mul_ps(r.sz, ez[1]), z2 = _mm_mul_ps(r.sz, ez[2]);
   const __m128 zlo = _mm_min_ps(z0, _mm_min_ps(z1, z2)), zhi = _mm_max_ps(z0, _mm_max_ps(z1, z2));
-  const __m128 margin = _mm_set1_ps(0x1p-20f);
-  const __m128 below = _mm_sub_ps(zlo, _mm_mul_ps(margin, _mm_andnot_ps(sign, zlo)));
-  const __m128 above = _mm_add_ps(zhi, _mm_mul_ps(margin, _mm_andnot_ps(sign, zhi)));
+  const __m128 margin = _mm_set1_ps(0x1p-20f), smallest = _mm_set1_ps(0x1p-126f);
+  const __m128 below = _mm_sub_ps(zlo, _mm_add_ps(_mm_mul_ps(margin, _mm_andnot_ps(sign, zlo)), smallest));
+  const __m128 above = _mm_add_ps(zhi, _mm_add_ps(_mm_mul_ps(margin, _mm_andnot_ps(sign, zhi)), smallest));
   candidates &= ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
   if (candidates == 0) return 0;
   int mask = 0;
