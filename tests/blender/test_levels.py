@@ -296,9 +296,9 @@ def test_a_setting_that_does_not_exist_leaves_no_half_built_scene(tmp_path):
 
 
 def test_every_diagram_the_text_shows_exists_and_is_drawn_by_a_script():
-    """Diagrams come from levels/make_diagrams.py, charts (bench_*.png) from ./raylab bench --publish."""
+    """Diagrams come from tools/make_diagrams.py, charts (bench_*.png) from ./raylab bench --publish."""
     scripts = {}
-    for name, paths in (("make_diagrams", [os.path.join(LEVELS_DIR, "make_diagrams.py")]),
+    for name, paths in (("make_diagrams", [os.path.join(ROOT, "tools", "make_diagrams.py")]),
                         ("bench", sorted(glob.glob(os.path.join(ROOT, "tools", "bench", "*.py"))))):
         assert paths, name
         scripts[name] = ""
