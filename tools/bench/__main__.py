@@ -15,7 +15,7 @@ from .run import bench_binary, run_blender, run_native
 
 
 def main():
-    parser = argparse.ArgumentParser(description=package_doc.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="./raylab bench", description=package_doc.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a tiny configuration, well under a minute")
     parser.add_argument("--out", default=str(ROOT / "out" / "bench"))
     parser.add_argument("--build-dir", default=os.environ.get("RAYLAB_BUILD_DIR", str(ROOT / "build")))
