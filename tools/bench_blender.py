@@ -1,4 +1,4 @@
-"""Blender's mathutils.bvhtree.BVHTree on the benchmark's meshes and rays (run by tools/bench.py).
+"""Blender's mathutils.bvhtree.BVHTree on the benchmark's meshes and rays (run by tools/bench/run.py).
 
     blender -b --factory-startup --python-exit-code 1 --python tools/bench_blender.py -- \
         --dir out/bench/data --names goathead,dragon --reps 3

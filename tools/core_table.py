@@ -4,7 +4,7 @@ and triangle tests per ray (from a separate counting run, so counting never slow
 
     /usr/bin/python3 tools/core_table.py [mesh.obj ...] [--rays N] [--slow-rays N] [--runs N]
 
-The rays are those of the equivalence tests (tests/python/rays.py): a pinhole camera framing the mesh,
+The rays are those of the equivalence tests (raylab.rays): a pinhole camera framing the mesh,
 and random rays from the enlarged bounding box. `none` and `aabb` test every triangle of every ray
 (that enters the box), so they trace fewer rays (--slow-rays); rates are per ray either way.
 """
@@ -17,12 +17,11 @@ import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "addon"))
-sys.path.insert(0, str(ROOT / "tests" / "python"))
 
 import numpy as np  # noqa: E402
 
 import raylab  # noqa: E402
-import rays  # noqa: E402
+from raylab import rays  # noqa: E402
 
 MESH_DIR = ROOT / "addon" / "raylab" / "meshes"
 SLOW = ("none", "aabb")

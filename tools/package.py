@@ -169,7 +169,7 @@ def write_zip(target, arcroot, builds, extra=None):
         for _, folder, _ in builds:
             add_tree(zf, folder, arcroot, skip=lambda relative: relative == "build.json")
         if os.path.isdir(LEVELS):
-            add_tree(zf, LEVELS, os.path.join(arcroot, "levels"), skip=lambda relative: relative.endswith(".py"))
+            add_tree(zf, LEVELS, os.path.join(arcroot, "levels"))
         for name, text in (extra or {}).items():
             zf.writestr(os.path.join(arcroot, name), text)
 

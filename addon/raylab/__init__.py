@@ -2,7 +2,8 @@
 
 The same package is the Blender add-on (bl_info, register, unregister) and the plain-Python API
 (`import raylab` from /usr/bin/python3 with addon/ on sys.path). Nothing here imports bpy at import
-time, so the API works outside Blender.
+time, so the API works outside Blender. `raylab.rays` holds the ray generators of raylab's tests, for
+scripting experiments with the same rays.
 """
 
 bl_info = {
@@ -15,6 +16,7 @@ bl_info = {
     "category": "Render",
 }
 
+import importlib  # noqa: E402
 import sys  # noqa: E402
 
 from . import native  # noqa: E402
@@ -23,6 +25,15 @@ if native.ERROR is None:
     from .api import *  # noqa: E402,F401,F403  the Python API (numpy in, numpy out)
 elif "bpy" not in sys.modules:
     raise ImportError(native.ERROR)
+
+
+def __getattr__(name):
+    """`raylab.rays` (the ray generators, numpy only) is imported on first use rather than here, so that
+    registering the add-on in Blender loads no module it does not need."""
+    if name == "rays":
+        # import_module, not `from . import rays`: that form looks the attribute up first, back in here.
+        return importlib.import_module(".rays", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def register():

@@ -1,7 +1,5 @@
 #include "hit_comparison.h"
 
-#include "json.h"
-
 #include <algorithm>
 #include <cmath>
 
@@ -103,17 +101,17 @@ glm::dvec3 solve_double(const TriangleMesh& mesh, const Ray& ray, uint32_t trian
   return {glm::dot(e2, qv) / det, glm::dot(s, pv) / det, glm::dot(d, qv) / det};
 }
 
-std::string hit_json(const TriangleMesh& mesh, const Ray& ray, const Hit& h) {
-  if (!h.valid()) return "null";
+nlohmann::ordered_json hit_json(const TriangleMesh& mesh, const Ray& ray, const Hit& h) {
+  if (!h.valid()) return nullptr;
   const glm::dvec3 exact = solve_double(mesh, ray, h.triangle);
-  return json::object({{"triangle", json::num(h.triangle)},
-                       {"t", json::num(h.t)},
-                       {"u", json::num(h.u)},
-                       {"v", json::num(h.v)},
-                       {"double_t", json::num(exact.x)},
-                       {"double_u", json::num(exact.y)},
-                       {"double_v", json::num(exact.z)},
-                       {"on_edge", near_edge(mesh, ray, h) ? "true" : "false"}});
+  return {{"triangle", h.triangle},
+          {"t", h.t},
+          {"u", h.u},
+          {"v", h.v},
+          {"double_t", exact.x},
+          {"double_u", exact.y},
+          {"double_v", exact.z},
+          {"on_edge", near_edge(mesh, ray, h)}};
 }
 
 void keep(Comparison& c, Agreement kind, const Ray& ray, const Hit& ours, const Hit& theirs) {
@@ -188,27 +186,26 @@ Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std:
   return c;
 }
 
-std::string comparison_json(const TriangleMesh& mesh, const Comparison& c) {
-  std::vector<json::Member> m;
+nlohmann::ordered_json comparison_json(const TriangleMesh& mesh, const Comparison& c) {
+  nlohmann::ordered_json m = nlohmann::ordered_json::object();
   uint64_t total = 0;
   for (int k = 0; k < kAgreementKinds; ++k) {
-    m.push_back({agreement_name(Agreement(k)), json::num(double(c.counts[k]))});
+    m[agreement_name(Agreement(k))] = c.counts[k];
     total += c.counts[k];
   }
-  m.push_back({"rays", json::num(double(total))});
-  std::vector<std::string> examples;
+  m["rays"] = total;
+  nlohmann::ordered_json examples = nlohmann::ordered_json::array();
   for (const Disagreement& e : c.examples) {
     const Ray& r = e.ray;
-    examples.push_back(json::object(
-        {{"kind", json::str(agreement_name(e.kind))},
-         {"origin", json::numbers({r.origin.x, r.origin.y, r.origin.z})},
-         {"direction", json::numbers({r.direction.x, r.direction.y, r.direction.z})},
-         {"tmin", json::num(r.tmin)},
-         {"raylab", hit_json(mesh, r, e.ours)},
-         {"embree", hit_json(mesh, r, e.theirs)}}));
+    examples.push_back({{"kind", agreement_name(e.kind)},
+                        {"origin", {r.origin.x, r.origin.y, r.origin.z}},
+                        {"direction", {r.direction.x, r.direction.y, r.direction.z}},
+                        {"tmin", r.tmin},
+                        {"raylab", hit_json(mesh, r, e.ours)},
+                        {"embree", hit_json(mesh, r, e.theirs)}});
   }
-  m.push_back({"examples", json::array(examples)});
-  return json::object(m);
+  m["examples"] = std::move(examples);
+  return m;
 }
 
 }  // namespace raylab::bench

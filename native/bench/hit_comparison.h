@@ -4,10 +4,11 @@
 
 #include "raylab/geometry.h"
 
+#include <nlohmann/json.hpp>
+
 #include <array>
 #include <cstdint>
 #include <span>
-#include <string>
 #include <vector>
 
 namespace raylab::bench {
@@ -59,7 +60,7 @@ Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std:
                        std::span<const Hit> their_closest);
 
 // JSON: {"same": n, ..., "rays": N, "examples": [...]}, each example with the ray, both hits and the
-// double-precision referee for both triangles.
-std::string comparison_json(const TriangleMesh& mesh, const Comparison& c);
+// double-precision referee for both triangles; keys in that order.
+nlohmann::ordered_json comparison_json(const TriangleMesh& mesh, const Comparison& c);
 
 }  // namespace raylab::bench

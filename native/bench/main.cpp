@@ -1,27 +1,31 @@
 // raylab_bench: raylab's structures side by side with Embree 3 on one mesh, the same rays, one run.
 // Writes <out>/<name>.json (timings, counts, hit agreement) and the .npy files the Python driver
 // and Blender's BVHTree run use (mesh, a subset of the rays, Embree's hits on them).
-// Usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS --name NAME --out DIR [options]; see usage().
+// Usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS --name NAME --out DIR [options]; see --help.
 #include "embree_tracer.h"
 #include "hit_comparison.h"
-#include "json.h"
 #include "npy.h"
 
 #include "raylab/mesh_io.h"
 #include "raylab/structure.h"
 
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <limits>
+#include <map>
 #include <numbers>
+#include <optional>
 #include <random>
-#include <sstream>
 #include <thread>
 #include <unordered_map>
 
@@ -41,61 +45,65 @@ struct Options {
   int max_depth = 6, leaf_size = 8;
 };
 
-[[noreturn]] void usage(const std::string& problem) {
-  std::cerr << "raylab_bench: " << problem << "\n"
-            << "usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS --name NAME --out DIR\n"
-               "  [--camera WxH] [--random-rays N] [--export-rays N] [--reps N] [--build-reps N]\n"
-               "  [--rep-seconds S] [--threads 1,2] [--structures none,aabb,octree,bvh]\n"
-               "  [--embree medium,high] [--max-depth D] [--leaf-size L]\n";
-  std::exit(2);
+// Embree's build qualities by the names --embree takes.
+const std::map<std::string, RTCBuildQuality> kEmbreeQualities{
+    {"low", RTC_BUILD_QUALITY_LOW}, {"medium", RTC_BUILD_QUALITY_MEDIUM}, {"high", RTC_BUILD_QUALITY_HIGH}};
+
+// "WxH" with both positive, or nothing.
+std::optional<std::pair<int, int>> parse_size(const std::string& text) {
+  const size_t x = text.find('x');
+  if (x == std::string::npos) return std::nullopt;
+  int w = 0, h = 0;
+  const char* end = text.data() + text.size();
+  const auto [w_end, w_error] = std::from_chars(text.data(), text.data() + x, w);
+  const auto [h_end, h_error] = std::from_chars(text.data() + x + 1, end, h);
+  if (w_error != std::errc() || h_error != std::errc() || w_end != text.data() + x || h_end != end || w < 1 || h < 1)
+    return std::nullopt;
+  return std::pair{w, h};
 }
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> parts;
-  std::stringstream in(s);
-  for (std::string p; std::getline(in, p, ',');)
-    if (!p.empty()) parts.push_back(p);
-  return parts;
-}
-
-Options parse(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (i + 1 >= argc) usage("missing value after " + arg);
-    const std::string value = argv[++i];
-    try {
-      if (arg == "--mesh") o.mesh = value;
-      else if (arg == "--name") o.name = value;
-      else if (arg == "--out") o.out_dir = value;
-      else if (arg == "--camera") {
-        const size_t x = value.find('x');
-        if (x == std::string::npos) usage("--camera expects WxH");
-        o.camera_width = std::stoi(value.substr(0, x));
-        o.camera_height = std::stoi(value.substr(x + 1));
-      } else if (arg == "--random-rays") o.random_rays = std::stoul(value);
-      else if (arg == "--export-rays") o.export_rays = std::stoul(value);
-      else if (arg == "--reps") o.reps = std::stoi(value);
-      else if (arg == "--build-reps") o.build_reps = std::stoi(value);
-      else if (arg == "--rep-seconds") o.rep_seconds = std::stod(value);
-      else if (arg == "--threads") {
-        o.threads.clear();
-        for (const std::string& t : split(value)) o.threads.push_back(std::stoi(t));
-      } else if (arg == "--structures") o.structures = split(value);
-      else if (arg == "--embree") o.embree_qualities = split(value);
-      else if (arg == "--max-depth") o.max_depth = std::stoi(value);
-      else if (arg == "--leaf-size") o.leaf_size = std::stoi(value);
-      else usage("unknown option " + arg);
-    } catch (const std::logic_error&) {
-      usage("bad value '" + value + "' for " + arg);
-    }
-  }
-  if (o.mesh.empty() || o.name.empty()) usage("--mesh and --name are required");
-  if (o.camera_width < 1 || o.camera_height < 1 || o.reps < 1 || o.build_reps < 1 || o.threads.empty())
-    usage("sizes, repetitions and thread counts must be positive");
-  for (int t : o.threads)
-    if (t < 1) usage("thread counts must be positive");
-  return o;
+void add_options(CLI::App& app, Options& o) {
+  app.option_defaults()->always_capture_default();
+  const CLI::Range positive(1, std::numeric_limits<int>::max());
+  app.add_option("--mesh", o.mesh, "an OBJ file, or icosphere:LEVELS (20 * 4^LEVELS triangles)")->required();
+  app.add_option("--name", o.name, "the name of the output files")->required();
+  app.add_option("--out", o.out_dir, "the output folder");
+  app.add_option_function<std::string>(
+         "--camera",
+         [&o](const std::string& size) {
+           const auto wh = parse_size(size);
+           if (!wh) throw CLI::ValidationError("--camera", "expects WxH with positive W and H, got " + size);
+           std::tie(o.camera_width, o.camera_height) = *wh;
+         },
+         "the camera's picture size, WxH")
+      ->default_str(std::to_string(o.camera_width) + "x" + std::to_string(o.camera_height));
+  app.add_option("--random-rays", o.random_rays, "random rays in the mesh's box");
+  app.add_option("--export-rays", o.export_rays, "rays per set written for Blender's BVHTree");
+  app.add_option("--reps", o.reps, "timed repetitions of each query")->check(positive);
+  app.add_option("--build-reps", o.build_reps, "timed builds of each structure")->check(positive);
+  app.add_option("--rep-seconds", o.rep_seconds, "about how long one repetition traces");
+  app.add_option("--threads", o.threads, "thread counts, comma-separated")
+      ->delimiter(',')
+      ->check(positive);
+  // The core knows the structures' names: a name it rejects is rejected here, before any work.
+  const CLI::Validator structure_name(
+      [](std::string& name) {
+        try {
+          structure_kind_from_name(name);
+          return std::string();
+        } catch (const std::exception& e) {
+          return std::string(e.what());
+        }
+      },
+      "STRUCTURE");
+  app.add_option("--structures", o.structures, "raylab's structures, comma-separated")
+      ->delimiter(',')
+      ->check(structure_name);
+  app.add_option("--embree", o.embree_qualities, "Embree's build qualities, comma-separated")
+      ->delimiter(',')
+      ->check(CLI::IsMember(kEmbreeQualities));
+  app.add_option("--max-depth", o.max_depth, "octree: the deepest level");
+  app.add_option("--leaf-size", o.leaf_size, "octree and bvh: triangles per leaf");
 }
 
 // An icosahedron subdivided `levels` times (20 * 4^levels triangles) on the unit sphere: a closed
@@ -221,23 +229,25 @@ struct RaySet {
   std::vector<Ray> rays;
 };
 
-std::string stats_json(const TraversalStats& s) {
+// Key order is kept as written: the Python driver and the report list sets and kinds in that order.
+using Json = nlohmann::ordered_json;
+
+Json stats_json(const TraversalStats& s) {
   const double n = std::max<double>(1.0, double(s.rays));
-  return json::object({{"rays", json::num(double(s.rays))},
-                       {"rays_ignored", json::num(double(s.rays_ignored))},
-                       {"box_tests_per_ray", json::num(double(s.box_tests) / n)},
-                       {"triangle_tests_per_ray", json::num(double(s.triangle_tests) / n)},
-                       {"nodes_visited_per_ray", json::num(double(s.nodes_visited) / n)}});
+  return {{"rays", s.rays},
+          {"rays_ignored", s.rays_ignored},
+          {"box_tests_per_ray", double(s.box_tests) / n},
+          {"triangle_tests_per_ray", double(s.triangle_tests) / n},
+          {"nodes_visited_per_ray", double(s.nodes_visited) / n}};
 }
 
 constexpr double kCheckSeconds = 1.0;
 
 // Times both queries on every ray set at every thread count; `extra(set, rays)` adds what only
 // one kind of tracer reports (raylab's counts and agreement).
-std::string trace_runs(const Tracer& tracer, const std::vector<RaySet>& sets, const Options& o,
-                       const std::function<std::string(const RaySet&, const std::vector<Ray>&)>& extra) {
-  std::vector<std::string> runs;
-  std::vector<json::Member> per_set;
+Json trace_runs(const Tracer& tracer, const std::vector<RaySet>& sets, const Options& o,
+                const std::function<Json(const RaySet&, const std::vector<Ray>&)>& extra) {
+  Json runs = Json::array(), per_set = Json::object();
   for (const RaySet& set : sets) {
     const size_t n = rays_per_repetition(tracer, set.rays, o.rep_seconds);
     const std::vector<Ray> subset = strided(set.rays, n);
@@ -252,13 +262,13 @@ std::string trace_runs(const Tracer& tracer, const std::vector<RaySet>& sets, co
         std::vector<double> seconds;
         for (int r = 0; r < o.reps; ++r) seconds.push_back(seconds_of(work));
         const double med = median(seconds);
-        runs.push_back(json::object({{"rays", json::str(set.name)},
-                                     {"query", json::str(query)},
-                                     {"threads", json::num(threads)},
-                                     {"ray_count", json::num(double(n))},
-                                     {"seconds_median", json::num(med)},
-                                     {"seconds", json::numbers(seconds)},
-                                     {"rays_per_second", json::num(double(n) / med)}}));
+        runs.push_back({{"rays", set.name},
+                        {"query", query},
+                        {"threads", threads},
+                        {"ray_count", n},
+                        {"seconds_median", med},
+                        {"seconds", seconds},
+                        {"rays_per_second", double(n) / med}});
       }
     }
     // Counts and agreement on every ray of the set when the tracer gets through them in about
@@ -266,21 +276,20 @@ std::string trace_runs(const Tracer& tracer, const std::vector<RaySet>& sets, co
     const size_t checked = n == set.rays.size()
                                ? n
                                : std::min(set.rays.size(), std::max(n, size_t(double(n) / o.rep_seconds * kCheckSeconds)));
-    per_set.push_back({set.name, extra(set, strided(set.rays, checked))});
+    per_set[set.name] = extra(set, strided(set.rays, checked));
   }
-  return json::object({{"runs", json::array(runs)}, {"per_ray_set", json::object(per_set)}});
+  return {{"runs", runs}, {"per_ray_set", per_set}};
 }
 
-std::string build_times_json(const Options& o, const std::function<double()>& build) {
-  std::vector<json::Member> m;
+Json build_times_json(const Options& o, const std::function<double()>& build) {
+  Json m = Json::object();
   for (int threads : o.threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
     std::vector<double> seconds;
     for (int r = 0; r < o.build_reps; ++r) seconds.push_back(build());
-    m.push_back({std::to_string(threads), json::object({{"seconds_median", json::num(median(seconds))},
-                                                         {"seconds", json::numbers(seconds)}})});
+    m[std::to_string(threads)] = {{"seconds_median", median(seconds)}, {"seconds", seconds}};
   }
-  return json::object(m);
+  return m;
 }
 
 void export_for_python(const Options& o, const TriangleMesh& mesh, const std::vector<RaySet>& sets,
@@ -306,13 +315,6 @@ void export_for_python(const Options& o, const TriangleMesh& mesh, const std::ve
   }
 }
 
-RTCBuildQuality quality_from_name(const std::string& name) {
-  if (name == "low") return RTC_BUILD_QUALITY_LOW;
-  if (name == "medium") return RTC_BUILD_QUALITY_MEDIUM;
-  if (name == "high") return RTC_BUILD_QUALITY_HIGH;
-  usage("unknown Embree build quality " + name);
-}
-
 int run(const Options& o) {
   std::filesystem::create_directories(o.out_dir);
   const auto mesh = std::make_shared<TriangleMesh>(load(o.mesh));
@@ -325,9 +327,8 @@ int run(const Options& o) {
   // The oracle: Embree at medium quality, the default of rtcNewScene.
   EmbreeTracer oracle(*mesh);
   oracle.build(RTC_BUILD_QUALITY_MEDIUM);
-  const Tracer oracle_tracer{[&](auto r, auto h) { oracle.closest(r, h); }, [&](auto r, auto o) { oracle.any(r, o); }};
 
-  std::vector<std::string> tracers;
+  Json tracers = Json::array();
   for (const std::string& name : o.structures) {
     std::cerr << "  " << name << "\n";
     BuildSettings settings;
@@ -335,15 +336,14 @@ int run(const Options& o) {
     settings.max_depth = o.max_depth;
     settings.leaf_size = o.leaf_size;
     std::unique_ptr<Structure> structure;
-    std::string build_times;
+    Json build_times;
     try {
       build_times = build_times_json(o, [&] {
         structure = build_structure(mesh, settings);
         return structure->build_seconds();
       });
     } catch (const std::exception& e) {  // a structure not written yet, or over the memory budget
-      tracers.push_back(json::object({{"name", json::str(name)}, {"kind", json::str("raylab")},
-                                      {"error", json::str(e.what())}}));
+      tracers.push_back({{"name", name}, {"kind", "raylab"}, {"error", e.what()}});
       continue;
     }
     const Structure& s = *structure;
@@ -357,57 +357,56 @@ int run(const Options& o) {
       intersect_any(s, rays, our_any, &any_stats);
       oracle.closest(rays, theirs);
       oracle.any(rays, their_any);
-      return json::object(
-          {{"counts", json::object({{"closest", stats_json(closest_stats)}, {"any", stats_json(any_stats)}})},
-           {"agreement_with_embree",
-            json::object({{"closest", comparison_json(*mesh, compare_closest(*mesh, rays, ours, theirs))},
-                          {"any", comparison_json(*mesh, compare_any(*mesh, rays, our_any, their_any, ours, theirs))}})}});
+      return Json{{"counts", {{"closest", stats_json(closest_stats)}, {"any", stats_json(any_stats)}}},
+                  {"agreement_with_embree",
+                   {{"closest", comparison_json(*mesh, compare_closest(*mesh, rays, ours, theirs))},
+                    {"any", comparison_json(*mesh, compare_any(*mesh, rays, our_any, their_any, ours, theirs))}}}};
     };
-    const std::string traced = trace_runs(tracer, sets, o, counts_and_agreement);
-    tracers.push_back(json::object({{"name", json::str(name)},
-                                    {"kind", json::str("raylab")},
-                                    {"error", "null"},
-                                    {"build", build_times},
-                                    {"memory_bytes", json::num(double(s.memory_bytes()))},
-                                    {"tracing", traced}}));
+    Json traced = trace_runs(tracer, sets, o, counts_and_agreement);
+    tracers.push_back({{"name", name},
+                       {"kind", "raylab"},
+                       {"error", nullptr},
+                       {"build", std::move(build_times)},
+                       {"memory_bytes", s.memory_bytes()},
+                       {"tracing", std::move(traced)}});
   }
 
   for (const std::string& quality : o.embree_qualities) {
     std::cerr << "  embree " << quality << "\n";
     EmbreeTracer embree(*mesh);
-    const RTCBuildQuality q = quality_from_name(quality);
-    const std::string build_times = build_times_json(o, [&] { return embree.build(q); });
+    const RTCBuildQuality q = kEmbreeQualities.at(quality);
+    Json build_times = build_times_json(o, [&] { return embree.build(q); });
     const Tracer tracer{[&](auto r, auto h) { embree.closest(r, h); }, [&](auto r, auto oc) { embree.any(r, oc); }};
-    const std::string traced = trace_runs(tracer, sets, o, [](const RaySet&, const std::vector<Ray>&) {
-      return std::string("{}");
-    });
-    tracers.push_back(json::object({{"name", json::str("embree_" + quality)},
-                                    {"kind", json::str("embree")},
-                                    {"error", "null"},
-                                    {"build", build_times},
-                                    {"memory_bytes", json::num(double(embree.memory_bytes()))},
-                                    {"tracing", traced}}));
+    Json traced = trace_runs(tracer, sets, o, [](const RaySet&, const std::vector<Ray>&) { return Json::object(); });
+    tracers.push_back({{"name", "embree_" + quality},
+                       {"kind", "embree"},
+                       {"error", nullptr},
+                       {"build", std::move(build_times)},
+                       {"memory_bytes", embree.memory_bytes()},
+                       {"tracing", std::move(traced)}});
   }
 
   export_for_python(o, *mesh, sets, oracle);
 
-  std::vector<json::Member> set_info;
-  for (const RaySet& set : sets) set_info.push_back({set.name, json::object({{"count", json::num(double(set.rays.size()))}})});
-  const std::string result = json::object({
-      {"mesh", json::str(o.name)},
-      {"source", json::str(o.mesh)},
-      {"triangles", json::num(double(mesh->triangle_count()))},
-      {"vertices", json::num(double(mesh->vertices.size()))},
-      {"camera", json::object({{"width", json::num(o.camera_width)}, {"height", json::num(o.camera_height)}})},
-      {"ray_sets", json::object(set_info)},
-      {"repetitions", json::num(o.reps)},
-      {"build_repetitions", json::num(o.build_reps)},
-      {"hardware_threads", json::num(std::thread::hardware_concurrency())},
-      {"embree_version", json::str(RTC_VERSION_STRING)},
-      {"octree", json::object({{"max_depth", json::num(o.max_depth)}, {"leaf_size", json::num(o.leaf_size)}})},
-      {"tracers", json::array(tracers)},
-  });
-  std::ofstream(o.out_dir + "/" + o.name + ".json") << result << "\n";
+  Json set_info = Json::object();
+  for (const RaySet& set : sets) set_info[set.name] = {{"count", set.rays.size()}};
+  const Json result{
+      {"mesh", o.name},
+      {"source", o.mesh},
+      {"triangles", mesh->triangle_count()},
+      {"vertices", mesh->vertices.size()},
+      {"camera", {{"width", o.camera_width}, {"height", o.camera_height}}},
+      {"ray_sets", std::move(set_info)},
+      {"repetitions", o.reps},
+      {"build_repetitions", o.build_reps},
+      {"hardware_threads", std::thread::hardware_concurrency()},
+      {"embree_version", RTC_VERSION_STRING},
+      {"octree", {{"max_depth", o.max_depth}, {"leaf_size", o.leaf_size}}},
+      {"tracers", std::move(tracers)},
+  };
+  // A path or message that is not UTF-8 gets U+FFFD rather than losing the whole run to an exception.
+  std::ofstream(o.out_dir + "/" + o.name + ".json")
+      << result.dump(-1, ' ', false, Json::error_handler_t::replace) << "\n";
   return 0;
 }
 
@@ -415,8 +414,17 @@ int run(const Options& o) {
 }  // namespace raylab::bench
 
 int main(int argc, char** argv) {
+  raylab::bench::Options options;
+  CLI::App app{"raylab_bench: raylab's structures side by side with Embree on one mesh, the same rays"};
+  raylab::bench::add_options(app, options);
   try {
-    return raylab::bench::run(raylab::bench::parse(argc, argv));
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help ends here too, with status 0; a bad command line exits 2, the usual usage error.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  try {
+    return raylab::bench::run(options);
   } catch (const std::exception& e) {
     std::cerr << "raylab_bench: " << e.what() << "\n";
     return 1;

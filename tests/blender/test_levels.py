@@ -5,6 +5,7 @@ gives a clear error, not a crash.
 
 Run inside Blender: blender -b --factory-startup --python-expr "import pytest; pytest.main(['tests/blender'])"
 """
+import glob
 import os
 import shutil
 import sys
@@ -295,12 +296,15 @@ def test_a_setting_that_does_not_exist_leaves_no_half_built_scene(tmp_path):
 
 
 def test_every_diagram_the_text_shows_exists_and_is_drawn_by_a_script():
-    """Diagrams come from levels/make_diagrams.py, charts (bench_*.png) from ./raylab bench --publish."""
+    """Diagrams come from tools/make_diagrams.py, charts (bench_*.png) from ./raylab bench --publish."""
     scripts = {}
-    for name, path in (("make_diagrams", os.path.join(LEVELS_DIR, "make_diagrams.py")),
-                       ("bench", os.path.join(ROOT, "tools", "bench.py"))):
-        with open(path, encoding="utf-8") as f:
-            scripts[name] = f.read()
+    for name, paths in (("make_diagrams", [os.path.join(ROOT, "tools", "make_diagrams.py")]),
+                        ("bench", sorted(glob.glob(os.path.join(ROOT, "tools", "bench", "*.py"))))):
+        assert paths, name
+        scripts[name] = ""
+        for path in paths:
+            with open(path, encoding="utf-8") as f:
+                scripts[name] += f.read()
     for level in levels.available_levels()[0]:
         images = [block[1] for block in level.blocks if block[0] == "image"]
         if level.id != "sandbox":

@@ -98,7 +98,10 @@ TEST(HitComparison, ExamplesKeepTheFirstFewOfEachKind) {
   EXPECT_EQ(c.counts[int(Agreement::Same)], 1u);
   EXPECT_EQ(c.counts[int(Agreement::Unexplained)], 9u);
   ASSERT_EQ(c.examples.size(), 3u);
-  const std::string json = comparison_json(mesh, c);
-  EXPECT_NE(json.find("\"unexplained\": 9"), std::string::npos) << json;
-  EXPECT_NE(json.find("\"double_t\": 1"), std::string::npos) << json;  // the referee re-solved the hit
+  const nlohmann::ordered_json json = comparison_json(mesh, c);
+  EXPECT_EQ(json["unexplained"], 9) << json;
+  EXPECT_EQ(json["rays"], 10) << json;
+  EXPECT_EQ(json["examples"].size(), 3u) << json;
+  EXPECT_DOUBLE_EQ(json["examples"][0]["raylab"]["double_t"].get<double>(), 1.0) << json;  // re-solved
+  EXPECT_TRUE(json["examples"][0]["embree"].is_null()) << json;  // Embree missed
 }

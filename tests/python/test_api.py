@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import raylab
-import rays
+from raylab import rays
 from conftest import ADDON, MESH_DIR, load
 
 STRUCTURES = raylab.STRUCTURES

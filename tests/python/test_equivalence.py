@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import raylab
-import rays
+from raylab import rays
 from conftest import MESHES, load
 
 SEED = 20261122

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import raylab
-import rays
+from raylab import rays
 
 
 def translate(x, y=0.0, z=0.0, scale=1.0):

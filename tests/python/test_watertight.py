@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import raylab
-import rays
+from raylab import rays
 from conftest import CLOSED_MESHES, load
 
 SEED = 4242

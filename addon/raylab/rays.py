@@ -1,11 +1,24 @@
-"""Ray sets for testing and measuring structures, all from a numpy Generator so they are reproducible.
+"""Ray sets for testing and measuring structures: the rays of raylab's own equivalence and watertightness
+tests, for scripting experiments with the same rays.
 
-Each function returns (origins, directions) as (N,3) float32 arrays.
+    from raylab import rays
+    V, T = raylab.load_mesh(path)
+    rng = np.random.default_rng(1)
+    origins, directions = rays.camera_rays(V, 256)          # a 256x256 pinhole camera framing the mesh
+    origins, directions = rays.grazing_rays(V, T, 10000, rng)
+    origins, directions, family = rays.mixed_rays(V, T, seed=1)   # every family below, about 100k rays
+    h = raylab.build(V, T).intersect(origins, directions)
+
+The ray generators return (origins, directions) as (N,3) float32 arrays, ready for intersect(); the
+random ones draw from the numpy Generator they are given, so a seed reproduces them. Directions are
+not always unit length (aimed rays point at their target). Only numpy is needed: the module works
+without the native core, and in Blender it is loaded on first use, not when the add-on registers.
 """
 import numpy as np
 
 
 def bounds(vertices):
+    """The mesh's bounding box as two float64 corners (lo, hi)."""
     lo, hi = vertices.min(axis=0).astype(np.float64), vertices.max(axis=0).astype(np.float64)
     return lo, hi
 
@@ -19,6 +32,7 @@ def _unit(v):
 
 
 def random_directions(rng, n):
+    """n unit vectors uniform on the sphere (float64)."""
     return _unit(rng.normal(size=(n, 3)))
 
 
@@ -67,11 +81,13 @@ def aimed_rays(origins, targets):
 
 
 def vertex_rays(vertices, triangles, n, rng):
+    """Rays from outside the mesh aimed exactly at its vertices."""
     targets = vertices[rng.integers(0, len(vertices), n)].astype(np.float64)
     return aimed_rays(outside_points(vertices, n, rng), targets)
 
 
 def edge_midpoint_rays(vertices, triangles, n, rng):
+    """Rays from outside the mesh aimed exactly at edge midpoints."""
     return aimed_rays(outside_points(vertices, n, rng), edge_points(vertices, triangles, n, rng, where=0.5))
 
 

@@ -1,6 +1,6 @@
 """Draws the 2D teaching diagrams of the tutorial levels into levels/<level>/diagrams/*.png.
 
-Run with Debian's Python (matplotlib from python3-matplotlib):  /usr/bin/python3 levels/make_diagrams.py
+Run with Debian's Python (matplotlib from python3-matplotlib):  /usr/bin/python3 tools/make_diagrams.py
 The geometry is computed, not sketched: the quadtree is built with the same rule as raylab's octree
 (split while depth < max_depth and a cell holds more than leaf_size triangles; a triangle goes to every
 cell it overlaps by the separating-axis test), and the rays are intersected with real slab and edge tests.
@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Polygon, Rectangle  # noqa: E402
 
-LEVELS = os.path.dirname(os.path.abspath(__file__))
+LEVELS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "levels")
 DEPTH_COLORS = ["#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02"]
 SHAPE_FILL = "#9ecae1"
 SHAPE_EDGE = "#3182bd"

@@ -1,0 +1,46 @@
+"""./raylab bench: measure raylab's structures against Embree (3 on Debian 12, 4 on Debian 13) and
+Blender's BVHTree, reproduce the VRT thesis's render experiment (its section 6.1), and chart speed against accuracy.
+
+    /usr/bin/python3 -m tools.bench [--quick] [--out out/bench] [--build-dir build]   (from the checkout)
+
+Everything is measured in this one run, on this machine, as medians of repetitions; comparisons are
+ratios on the same rays (the machines are shared and noisy: absolute times drift, ratios less).
+Writes <out>/results.json, <out>/results.md and <out>/bench_*.png; the raw per-mesh files of
+raylab_bench and Blender stay in <out>/data/.
+
+The modules, one role each: `run` drives raylab_bench and Blender's BVHTree, `experiments` measures
+through the Python API (the thesis render, leaks, self-hits), `report` writes the Markdown and
+publishes, `charts` draws; this file holds what they share: paths, the two configurations, the log.
+"""
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+# The checkout's add-on, so that `import raylab` in the modules loads the package built here.
+sys.path.insert(0, str(ROOT / "addon"))
+
+MESH_DIR = ROOT / "addon" / "raylab" / "meshes"
+
+FULL = {
+    "meshes": [("goathead", "goathead.obj"), ("bunny_hr", "bunny_hr.obj"), ("dragon", "dragon.obj"),
+               ("icosphere", "icosphere:8")],
+    "native": ["--camera", "512x384", "--random-rays", "100000", "--export-rays", "20000", "--reps", "3",
+               "--build-reps", "3", "--rep-seconds", "0.08", "--threads", "1,2", "--embree", "medium,high"],
+    "blender_reps": 3,
+    "thesis": {"width": 160, "height": 120, "super_sampling": [1, 2, 3, 4], "reps": 3, "reference_ss": 8},
+    "leaks": {"meshes": ["goathead", "armadillo", "icosphere"], "rays_per_kind": 20000, "reps": 3},
+    "self_hits": {"scales": [1e-3, 1e-2, 1e-1, 1, 1e1, 1e2, 1e3, 1e4, 1e5], "width": 96, "height": 72},
+}
+QUICK = {
+    "meshes": [("goathead", "goathead.obj")],
+    "native": ["--camera", "48x36", "--random-rays", "1500", "--export-rays", "300", "--reps", "1",
+               "--build-reps", "1", "--rep-seconds", "0.01", "--threads", "1,2", "--embree", "medium"],
+    "blender_reps": 1,
+    "thesis": {"width": 32, "height": 24, "super_sampling": [1, 2], "reps": 1, "reference_ss": 4},
+    "leaks": {"meshes": ["goathead"], "rays_per_kind": 1000, "reps": 1},
+    "self_hits": {"scales": [1e-3, 1, 1e5], "width": 24, "height": 18},
+}
+
+
+def log(*args):
+    print("bench:", *args, flush=True)

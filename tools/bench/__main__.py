@@ -1,0 +1,63 @@
+"""The entry point of ./raylab bench (python3 -m tools.bench): measures everything, or redraws and
+publishes an earlier run's results."""
+import argparse
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+from . import FULL, QUICK, ROOT, __doc__ as package_doc, log
+from .charts import write_charts
+from .experiments import run_leaks, run_self_hits, run_thesis
+from .report import markdown, publish
+from .run import bench_binary, run_blender, run_native
+
+
+def main():
+    parser = argparse.ArgumentParser(prog="./raylab bench", description=package_doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a tiny configuration, well under a minute")
+    parser.add_argument("--out", default=str(ROOT / "out" / "bench"))
+    parser.add_argument("--build-dir", default=os.environ.get("RAYLAB_BUILD_DIR", str(ROOT / "build")))
+    parser.add_argument("--no-blender", action="store_true", help="skip Blender's BVHTree")
+    parser.add_argument("--replot", action="store_true",
+                        help="redraw the charts and the table from <out>/results.json, measuring nothing")
+    parser.add_argument("--publish", action="store_true",
+                        help="copy the charts of a full run into the levels that show them (and the README)")
+    args = parser.parse_args()
+    out = Path(args.out)
+    if args.replot or args.publish:
+        results = json.loads((out / "results.json").read_text())
+        if args.replot:
+            results["charts"] = write_charts(results, out)
+            (out / "results.json").write_text(json.dumps(results, indent=1))
+            (out / "results.md").write_text(markdown(results))
+        if args.publish:
+            publish(results, out)
+        return
+    config = QUICK if args.quick else FULL
+    data = out / "data"
+    data.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+
+    native = run_native(config, bench_binary(args.build_dir), data)
+    blender = {} if args.no_blender else run_blender(config, data, native)
+    thesis = run_thesis(config)
+    leaks = run_leaks(config, data)
+    self_hits = run_self_hits(config)
+    first = next(iter(native.values()))
+    results = {"configuration": "quick" if args.quick else "full",
+               "machine": {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                           "hardware_threads": first["hardware_threads"], "embree": first["embree_version"],
+                           "platform": platform.platform()},
+               "meshes": native, "blender": blender, "thesis": thesis, "leaks": leaks, "self_hits": self_hits}
+    results["charts"] = write_charts(results, out)
+    results["seconds_total"] = time.perf_counter() - started
+    (out / "results.json").write_text(json.dumps(results, indent=1))
+    (out / "results.md").write_text(markdown(results))
+    print(markdown(results))
+    log(f"done in {results['seconds_total']:.0f} s: {out / 'results.md'}")
+
+
+if __name__ == "__main__":
+    main()

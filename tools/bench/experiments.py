@@ -1,0 +1,250 @@
+"""The experiments measured through raylab's Python API: the VRT thesis's render experiment with image
+error against a super-sampled reference, rays leaking out of closed meshes (Möller–Trumbore against
+the watertight test) and false self-hits of shadow rays against scene scale."""
+import math
+import statistics
+import time
+
+import numpy as np
+
+import raylab
+
+from . import MESH_DIR, log
+
+# The VRT thesis, section 6.1, Tables 1-4: goat head in front of the camera, render seconds (average
+# of 3 trials) and ray-triangle tests. Its octree never accelerated anything (Unity's raycast hid
+# the triangles), so its octree counts are what the octree "would" test.
+THESIS = {
+    "render_seconds": {"none": [0.1803, 0.5674, 1.2525], "aabb": [0.1480, 0.4708, 0.9915],
+                       "octree": [0.2784, 0.8902, 1.9080]},
+    "triangle_tests": {"none": [116_960_000, 467_840_000, 1_052_630_000],
+                       "aabb": [22_994_336, 92_273_399, 207_390_548],
+                       "octree": [1_173_277, 4_700_384, 10_557_042]},
+}
+
+
+# ---------------------------------------------------------------- the VRT thesis experiment
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)):
+    """Camera-to-world matrix of a Blender camera (looking down its local -Z, +Y up) at `eye`."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    forward = target - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    cam_up = np.cross(right, forward)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, cam_up, -forward, eye
+    return m
+
+
+def thesis_setup(V, width, height):
+    """The goat head right in front of the camera (the thesis's Figure 22), a point light above the
+    camera and one diffuse material."""
+    lo, hi = V.min(0).astype(float), V.max(0).astype(float)
+    center, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
+    # Blender's default lens: 50 mm on a 36 mm sensor, about 39.6 degrees across the wider side.
+    half_fov = math.atan(0.5 * 36.0 / 50.0 * min(1.0, height / width))
+    eye = center + np.array([0.0, -1.0, 0.25]) / np.linalg.norm([0.0, -1.0, 0.25]) * radius / math.sin(half_fov)
+    camera = dict(type="PERSP", matrix_world=look_at(eye, center), lens=50.0, sensor_width=36.0,
+                  sensor_height=24.0, sensor_fit="AUTO", clip_start=0.01, clip_end=1e4,
+                  resolution_x=width, resolution_y=height, resolution_percentage=100)
+    light_matrix = np.eye(4)
+    light_matrix[:3, 3] = eye + np.array([radius, 0.0, 2 * radius])
+    lights = [dict(type="POINT", color=(1.0, 1.0, 1.0), energy=2000.0 * radius ** 2, matrix_world=light_matrix,
+                   radius=0.0, shadows=True)]
+    materials = [dict(diffuse=(0.8, 0.7, 0.6), specular=0.3, shininess=32.0, ambient=0.05)]
+    return camera, lights, materials
+
+
+def built_structures():
+    """The structures this build provides (while a structure is being written its build raises)."""
+    triangle = (np.eye(3, dtype=np.float32), np.array([[0, 1, 2]], np.uint32))
+    out = []
+    for structure in raylab.STRUCTURES:
+        try:
+            raylab.build(*triangle, structure=structure)
+            out.append(structure)
+        except RuntimeError as error:
+            log(f"{structure} is not available: {error}")
+    return out
+
+
+def render_once(V, T, structure, camera, lights, materials, **settings):
+    scene = raylab.Scene(structure=structure, max_depth=6, leaf_size=8)
+    scene.add_instance(scene.add_mesh(V, T), np.eye(4), material=0)
+    scene.commit()
+    base = dict(super_sampling=1, max_depth=3, shadows=True, background=(0.05, 0.05, 0.05),
+                ambient=(1.0, 1.0, 1.0), threads=0)
+    return raylab.render(scene, camera, lights, materials, base | settings)
+
+
+def run_thesis(config):
+    """Render seconds (median of reps) and ray-triangle tests per structure and super-sampling,
+    side by side with the thesis; the images feed the speed-against-accuracy chart."""
+    cfg = config["thesis"]
+    V, T = raylab.load_mesh(MESH_DIR / "goathead.obj")
+    camera, lights, materials = thesis_setup(V, cfg["width"], cfg["height"])
+    log("thesis experiment", "with raylab.render")
+    rows, images = [], {}
+    for structure in built_structures():
+        for ss in cfg["super_sampling"]:
+            reps = cfg["reps"] if ss <= len(THESIS["render_seconds"]["none"]) else 1  # the thesis's levels
+            seconds, stats = [], None
+            for _ in range(reps):
+                res = render_once(V, T, structure, camera, lights, materials, super_sampling=ss)
+                seconds.append(res.stats["render_seconds"])
+                stats = {k: res.stats[k] for k in ("rays_primary", "rays_shadow", "rays_ignored", "box_tests",
+                                                   "triangle_tests", "build_seconds")}
+                images[(structure, ss)] = res.image
+            rows.append(dict(structure=structure, super_sampling=ss, repetitions=reps,
+                             render_seconds_median=statistics.median(seconds), render_seconds=seconds, **stats))
+    result = {"mode": "render", "note": "raylab.render, Whitted shading with shadows, one point light",
+              "width": cfg["width"], "height": cfg["height"], "mesh": "goathead.obj", "triangles": len(T),
+              "rows": rows, "thesis": THESIS, "reference_super_sampling": cfg["reference_ss"]}
+    if images:
+        result["image_error"] = image_errors(images, reference_render(V, T, camera, lights, materials,
+                                                                      cfg["reference_ss"]))
+    return result
+
+
+def reference_render(V, T, camera, lights, materials, samples):
+    """The scene with samples x samples rays per pixel, traced with the BVH (every structure gives the
+    same image; image_errors checks that at each level). The renderer super-samples up to 4x4, so the
+    picture is rendered k times larger at samples/k and each k x k block averaged: the same regular
+    grid of samples."""
+    k = next(k for k in range(math.ceil(samples / 4), samples + 1) if samples % k == 0)
+    big = dict(camera, resolution_x=camera["resolution_x"] * k, resolution_y=camera["resolution_y"] * k)
+    image = render_once(V, T, "bvh", big, lights, materials, super_sampling=samples // k).image
+    h, w = camera["resolution_y"], camera["resolution_x"]
+    return image.reshape(h, k, w, k, image.shape[-1]).mean(axis=(1, 3))
+
+
+def image_errors(images, reference):
+    """RMSE and PSNR of every render against the reference render (colours clipped to [0, 1] as
+    displayed), and the largest difference between structures at the same super-sampling: the
+    structures must give the same image."""
+    structures = sorted({s for s, _ in images})
+    ref = np.clip(reference[..., :3], 0, 1)
+    out = []
+    for (structure, ss), img in sorted(images.items()):
+        diff = np.clip(img[..., :3], 0, 1) - ref
+        rmse = float(np.sqrt(np.mean(diff ** 2)))
+        psnr = math.inf if rmse == 0 else 20 * math.log10(1.0 / rmse)
+        across = max(float(np.abs(img - images[(other, ss)]).max()) for other in structures)
+        out.append(dict(structure=structure, super_sampling=ss, rmse=rmse, psnr_db=psnr if math.isfinite(psnr) else None,
+                        max_difference_to_other_structures=across))
+    return out
+
+
+def thesis_structures(thesis):
+    """The structures of the thesis experiment's rows, in the order they were measured."""
+    return list(dict.fromkeys(r["structure"] for r in thesis["rows"]))
+
+
+# ---------------------------------------------------------------- leaks: Möller–Trumbore vs watertight
+
+def crossings(structure, origins, direction):
+    """How many times each ray from `origins` along `direction` crosses the surface."""
+    count = np.zeros(len(origins), int)
+    travelled = np.zeros(len(origins), np.float32)
+    active = np.arange(len(origins))
+    for _ in range(200):
+        if not len(active):
+            break
+        # Each ray restarts from its last hit point, so one tmin serves every ray.
+        h = structure.intersect(origins[active] + travelled[active, None] * direction, direction, tmin=1e-5)
+        count[active[h.hit]] += 1
+        travelled[active[h.hit]] += h.t[h.hit]
+        active = active[h.hit]
+    return count
+
+
+def inside_points(structure, lo, hi, count, rng):
+    """Random points inside a closed mesh: an odd number of crossings along each of three
+    directions (one direction alone misjudges points whose ray grazes an edge)."""
+    candidates = rng.uniform(lo, hi, size=(count * 4, 3)).astype(np.float32)
+    inside = np.ones(len(candidates), bool)
+    for direction in ([0.5773, 0.5774, 0.5775], [-0.31, 0.72, -0.62], [0.11, -0.45, 0.886]):
+        inside &= crossings(structure, candidates, np.array(direction, np.float32)) % 2 == 1
+    return candidates[inside][:count]
+
+
+def run_leaks(config, data_dir):
+    """Rays from inside closed meshes towards vertices, edge midpoints and random directions: every
+    one must hit. Counts the escapes and the throughput of each triangle test on the same rays."""
+    cfg = config["leaks"]
+    rng = np.random.default_rng(7)
+    out = []
+    for name in cfg["meshes"]:
+        # The generated icosphere exists only as raylab_bench's export; shipped meshes load directly.
+        if (data_dir / f"{name}.vertices.npy").exists():
+            V, T = np.load(data_dir / f"{name}.vertices.npy"), np.load(data_dir / f"{name}.triangles.npy")
+        else:
+            V, T = raylab.load_mesh(MESH_DIR / f"{name}.obj")
+        reference = raylab.build(V, T, structure="bvh")
+        n = cfg["rays_per_kind"]
+        origins = inside_points(reference, V.min(0), V.max(0), n, rng)
+        if len(origins) == 0:
+            continue
+        origins = origins[rng.integers(0, len(origins), n)]
+        edge = rng.integers(0, 3, n)
+        tri = T[rng.integers(0, len(T), n)]
+        targets = {"vertex": V[tri[np.arange(n), edge]],
+                   "edge": 0.5 * (V[tri[np.arange(n), edge]] + V[tri[np.arange(n), (edge + 1) % 3]])}
+        directions = {k: (p - origins) for k, p in targets.items()}
+        directions["random"] = rng.normal(size=(n, 3)).astype(np.float32)
+        for test in raylab.TRIANGLE_TESTS:
+            s = raylab.build(V, T, structure="bvh", triangle_test=test)
+            for kind, d in directions.items():
+                seconds = []
+                for _ in range(cfg["reps"]):
+                    start = time.perf_counter()
+                    h = s.intersect(origins, d)
+                    seconds.append(time.perf_counter() - start)
+                med = statistics.median(seconds)
+                out.append(dict(mesh=name, triangles=len(T), triangle_test=test, rays=kind, ray_count=n,
+                                escaped=int((~h.hit).sum()), rays_per_second=n / med, seconds_median=med))
+        log(f"leaks {name} done")
+    return out
+
+
+# ---------------------------------------------------------------- false self-hits against scale
+
+def run_self_hits(config):
+    """A convex sphere lit by a sun: nothing on it can shadow itself, so every pixel that comes out
+    darker with shadows on than with shadows off is a false self-hit of a shadow ray. The scene is
+    scaled and moved away from the origin by each scale (so coordinates grow with it) and rendered
+    with fixed epsilons and with the robust integer-ulp offset."""
+    cfg = config["self_hits"]
+    V, T = raylab.load_mesh(MESH_DIR / "sphere.obj")
+    methods = [("fixed 1e-4", dict(robust_offset=False, fixed_epsilon=1e-4)),
+               ("fixed 1e-6", dict(robust_offset=False, fixed_epsilon=1e-6)),
+               ("robust", dict(robust_offset=True))]
+    sun = look_at((0.3, -1.0, 1.0), (0.0, 0.0, 0.0))
+    lights = [dict(type="SUN", color=(1.0, 1.0, 1.0), energy=3.0, matrix_world=sun, shadows=True)]
+    materials = [dict(diffuse=(0.8, 0.8, 0.8), specular=0.0, ambient=0.05)]
+    rows = []
+    for scale in cfg["scales"]:
+        offset = np.array([3.0, 2.0, 1.0]) * scale
+        place = np.diag([scale, scale, scale, 1.0])
+        place[:3, 3] = offset
+        eye = offset + np.array([0.0, -4.0, 1.0]) * scale
+        camera = dict(type="PERSP", matrix_world=look_at(eye, offset), lens=50.0, sensor_width=36.0,
+                      sensor_fit="AUTO", clip_start=1e-3 * scale, clip_end=1e3 * scale,
+                      resolution_x=cfg["width"], resolution_y=cfg["height"], resolution_percentage=100)
+        scene = raylab.Scene(structure="bvh")
+        scene.add_instance(scene.add_mesh(V, T), place, material=0)
+        scene.commit()
+        base = dict(super_sampling=1, max_depth=1, background=(0, 0, 0), ambient=(1, 1, 1))
+        reference = raylab.render(scene, camera, lights, materials, base | dict(shadows=False))
+        unshadowed, on_sphere = reference.image, reference.instance >= 0
+        lit = on_sphere & (unshadowed[..., :3].sum(-1) > 3 * 0.05 * 0.8 + 1e-3)
+        for method, settings in methods:
+            res = raylab.render(scene, camera, lights, materials, base | dict(shadows=True) | settings)
+            darker = (unshadowed[..., :3] - res.image[..., :3]).max(-1) > 1e-3
+            rows.append(dict(scale=scale, method=method, lit_pixels=int(lit.sum()),
+                             false_self_hits=int((darker & lit).sum()),
+                             fraction=float((darker & lit).sum() / max(1, lit.sum()))))
+        log(f"self-hits at scale {scale:g} done")
+    return {"rows": rows, "mesh": "sphere.obj", "light": "sun"}

@@ -1,0 +1,172 @@
+"""The benchmark's Markdown report (results.md), and --publish: the charts of a full run into the
+levels that show them, the report into docs/bench/."""
+import shutil
+import sys
+
+from . import ROOT, log
+from .experiments import THESIS, thesis_structures
+from .run import DISAGREEMENT_KINDS, run_lookup
+
+
+def fmt_rate(x):
+    return "-" if x is None else (f"{x / 1e6:.2f} M" if x >= 1e6 else f"{x / 1e3:.1f} k")
+
+
+def disagreement_examples(results):
+    """One example ray per mesh, structure and kind of disagreement, with both hits re-solved in double
+    precision: the referee says which tracer was off, and by how much."""
+    def hit(h):
+        if h is None:
+            return "miss", "-"
+        edge = ", on edge" if h["on_edge"] else ""
+        return f"{h['triangle']} at t {h['t']:.7g}{edge}", f"{h['double_t']:.9g}"
+
+    lines = ["Examples (the first disagreement of each kind; *double t* is the ray against that triangle solved "
+             "in double precision):", "",
+             "| mesh | structure | rays | query | kind | raylab hit | double t | Embree hit | double t |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name, mesh in results["meshes"].items():
+        for t in mesh["tracers"]:
+            if t["kind"] != "raylab" or t["error"] or t["name"] not in ("octree", "bvh"):
+                continue
+            for ray_set, per in t["tracing"]["per_ray_set"].items():
+                for query, counts in per["agreement_with_embree"].items():
+                    seen = set()
+                    for e in counts.get("examples", []):
+                        if e["kind"] in seen:
+                            continue
+                        seen.add(e["kind"])
+                        ours, theirs = hit(e["raylab"]), hit(e["embree"])
+                        lines.append(f"| {name} | {t['name']} | {ray_set} | {query} | {e['kind']} | {ours[0]} | "
+                                     f"{ours[1]} | {theirs[0]} | {theirs[1]} |")
+    if len(lines) == 4:
+        lines.append("| (no disagreement) | | | | | | | | |")
+    return lines + [""]
+
+
+def markdown(results):
+    lines = ["# raylab benchmark", "",
+             f"{results['machine']['date']}, {results['machine']['hardware_threads']} hardware threads, "
+             f"Embree {results['machine']['embree']}, Blender {results['blender'].get('blender_version', '-')}. "
+             "Rays/s are medians of repetitions in this run; ratios are raylab / Embree (medium quality) "
+             "on the same rays.", ""]
+    lines += ["## Throughput, build and memory", "",
+              "| mesh | tris | tracer | build s (2t) | bytes/tri | camera closest 1t | 2t | camera any 2t "
+              "| random closest 1t | 2t | random any 2t | boxes/ray | tris/ray | BVH/Embree camera | random | build |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for name, mesh in results["meshes"].items():
+        for t in mesh["tracers"]:
+            if t["error"]:
+                lines.append(f"| {name} | {mesh['triangles']:,} | {t['name']} | error: {t['error']} |" + " |" * 12)
+                continue
+            rate = lambda s, q, n: (run_lookup(t, s, q, n) or {}).get("rays_per_second")  # noqa: E731
+            counts = t["tracing"]["per_ray_set"].get("camera", {}).get("counts", {}).get("closest")
+            r = t.get("ratios_to_embree_medium", {})
+            tests = (f"| {counts['box_tests_per_ray']:.1f} | {counts['triangle_tests_per_ray']:.1f} " if counts
+                     else "| - | - ")
+            lines.append(
+                f"| {name} | {mesh['triangles']:,} | {t['name']} | {t['build']['2']['seconds_median']:.4f} "
+                f"| {t['memory_bytes'] / mesh['triangles']:.1f} "
+                f"| {fmt_rate(rate('camera', 'closest', 1))} | {fmt_rate(rate('camera', 'closest', 2))} "
+                f"| {fmt_rate(rate('camera', 'any', 2))} | {fmt_rate(rate('random', 'closest', 1))} "
+                f"| {fmt_rate(rate('random', 'closest', 2))} | {fmt_rate(rate('random', 'any', 2))} " + tests)
+            if r:
+                lines[-1] += (f"| {r['camera_closest_2t_rays_per_second']:.2f} | {r['random_closest_2t_rays_per_second']:.2f} "
+                              f"| {r['build_2t_seconds']:.2f} |")
+            else:
+                lines[-1] += "| | | |"
+        b = results["blender"].get("meshes", {}).get(name)
+        if b:
+            rs = b["ray_sets"]
+            lines.append(f"| {name} | {mesh['triangles']:,} | Blender BVHTree (Python loop) | "
+                         f"{b['build']['seconds_median']:.4f} (1t) | - | {fmt_rate(rs['camera']['rays_per_second'])} "
+                         f"| - | - | {fmt_rate(rs['random']['rays_per_second'])} | - | - | - | - "
+                         f"| {rs['camera']['ratio_to_embree_medium_1t']:.2f} (1t) "
+                         f"| {rs['random']['ratio_to_embree_medium_1t']:.2f} (1t) "
+                         f"| {b['build']['ratio_to_embree_medium']:.2f} (1t) |")
+    lines += ["", "Rays that raylab's `none` and `aabb` trace are a spread subset of each set (they are O(T) "
+              "per ray); each tracer's rays/s is over the rays it traced. Blender's BVHTree is a Python loop "
+              "of `ray_cast` on one thread (it has no any-hit query), on a subset of the same rays.", ""]
+    lines += ["## Hits compared with Embree on every benchmark ray", "",
+              "| mesh | tracer | rays | query | " + " | ".join(DISAGREEMENT_KINDS) + " |",
+              "|---|---|---|---|" + "---|" * len(DISAGREEMENT_KINDS)]
+    for name, mesh in results["meshes"].items():
+        for t in mesh["tracers"]:
+            if t["kind"] != "raylab" or t["error"]:
+                continue
+            for ray_set, per in t["tracing"]["per_ray_set"].items():
+                for query, counts in per["agreement_with_embree"].items():
+                    lines.append(f"| {name} | {t['name']} | {ray_set} | {query} | "
+                                 + " | ".join(str(counts.get(k, 0)) for k in DISAGREEMENT_KINDS) + " |")
+        for ray_set, b in results["blender"].get("meshes", {}).get(name, {}).get("ray_sets", {}).items():
+            c = b["agreement_with_embree"]
+            lines.append(f"| {name} | Blender BVHTree | {ray_set} | closest | "
+                         + " | ".join(str(c.get(k, 0)) for k in DISAGREEMENT_KINDS) + " |")
+    lines += ["", "Kinds: *same* (both miss, or the same triangle at t within 1e-5 relative); *rounding* (the same "
+              "triangle, t differs, but both hit points lie on its plane within 1e-6 of the coordinates' magnitude: a "
+              "slide along the face, which a short t or a grazing ray magnifies); *shared_edge_vertex* (different triangles sharing a vertex at the "
+              "same point, on an edge of both: an exact edge or vertex hit owned by both); *coincident_faces* "
+              "(different triangles without a shared vertex at the same point: overlapping faces); *edge_ray* (the row's tracer hits a triangle on its edge, within 1e-5 barycentric or "
+              "1e-6 of the magnitude of the corners and the ray origin, where Embree misses or hits farther: "
+              "Embree's default test is not watertight); *edge_ray_passed* (the reverse: Embree hits an edge the "
+              "row's tracer passes); "
+              "*grazing* (same triangle, t differs, ray almost parallel to the face); *unexplained*.", ""]
+    lines += disagreement_examples(results)
+    th = results["thesis"]
+    structures = thesis_structures(th)
+    lines += [f"## The VRT thesis experiment (section 6.1), {th['width']}x{th['height']} pixels", "", th["note"] + ".", "",
+              "| super-sampling | " + " | ".join(f"raylab {s} s" for s in structures)
+              + " | thesis none s | thesis aabb s | thesis octree s |", "|---|" + "---|" * (len(structures) + 3)]
+    by = {(r["structure"], r["super_sampling"]): r for r in th["rows"]}
+    for i, ss in enumerate(sorted({r["super_sampling"] for r in th["rows"]})):
+        thesis = [THESIS["render_seconds"][s][i] if i < 3 else None for s in ("none", "aabb", "octree")]
+        lines.append(f"| {ss} | " + " | ".join(f"{by[(s, ss)]['render_seconds_median']:.4f}" for s in structures)
+                     + " | " + " | ".join("-" if x is None else f"{x:.4f}" for x in thesis) + " |")
+    lines += ["", "| super-sampling | " + " | ".join(f"raylab {s} tests" for s in structures)
+              + " | thesis none | thesis aabb | thesis octree |", "|---|" + "---|" * (len(structures) + 3)]
+    for i, ss in enumerate(sorted({r["super_sampling"] for r in th["rows"]})):
+        thesis = [THESIS["triangle_tests"][s][i] if i < 3 else None for s in ("none", "aabb", "octree")]
+        lines.append(f"| {ss} | " + " | ".join(f"{by[(s, ss)]['triangle_tests']:,}" for s in structures)
+                     + " | " + " | ".join("-" if x is None else f"{x:,}" for x in thesis) + " |")
+    if th.get("image_error"):
+        lines += ["", f"Image error against the reference, the same scene rendered at super-sampling "
+                  f"{th['reference_super_sampling']}x{th['reference_super_sampling']}:", "", "| structure | super-sampling | render s | RMSE | PSNR dB | max diff to other structures |",
+                  "|---|---|---|---|---|---|"]
+        for e in th["image_error"]:
+            r = by[(e["structure"], e["super_sampling"])]
+            psnr = f"{e['psnr_db']:.1f}" if e["psnr_db"] else "inf"
+            lines.append(f"| {e['structure']} | {e['super_sampling']} | {r['render_seconds_median']:.4f} "
+                         f"| {e['rmse']:.5f} | {psnr} | {e['max_difference_to_other_structures']:.2g} |")
+    lines += ["", "## Rays escaping closed meshes from inside", "",
+              "| mesh | triangles | test | rays aimed at | rays | escaped | rays/s |", "|---|---|---|---|---|---|---|"]
+    for r in results["leaks"]:
+        lines.append(f"| {r['mesh']} | {r['triangles']:,} | {r['triangle_test']} | {r['rays']} | {r['ray_count']} "
+                     f"| {r['escaped']} | {fmt_rate(r['rays_per_second'])} |")
+    sh = results["self_hits"]
+    lines += ["", "## False self-hits of shadow rays against scene scale", ""]
+    methods = list(dict.fromkeys(r["method"] for r in sh["rows"]))
+    lines += ["Convex sphere, sun light: every lit pixel darkened by its own shadow ray is a false self-hit "
+              "(share of lit pixels).", "", "| scale | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
+    for scale in dict.fromkeys(r["scale"] for r in sh["rows"]):
+        cells = [next(r for r in sh["rows"] if r["scale"] == scale and r["method"] == m) for m in methods]
+        lines.append(f"| {scale:g} | " + " | ".join(f"{c['false_self_hits']} ({100 * c['fraction']:.1f}%)" for c in cells) + " |")
+    lines += ["", "Charts: " + ", ".join(f"`{c}`" for c in results["charts"]), ""]
+    return "\n".join(lines)
+
+
+# Where each chart is shown: the level folders hold them as diagrams (the installed add-on carries the
+# levels), and the README embeds them from there; the full table goes to docs/bench/results.md.
+PUBLISHED = {"bench_throughput.png": "race", "bench_embree_ratio.png": "race", "bench_thesis.png": "race",
+             "bench_speed_accuracy.png": "race", "bench_leaks.png": "where_methods_fail",
+             "bench_self_hits.png": "where_methods_fail"}
+
+
+def publish(results, out):
+    if results["configuration"] != "full":
+        sys.exit("bench: --publish takes the charts of a full run (./raylab bench without --quick)")
+    for chart, level in PUBLISHED.items():
+        target = ROOT / "levels" / level / "diagrams" / chart
+        shutil.copyfile(out / chart, target)
+        log(f"published {target.relative_to(ROOT)}")
+    shutil.copyfile(out / "results.md", ROOT / "docs" / "bench" / "results.md")
+    log("published docs/bench/results.md")
