@@ -19,7 +19,6 @@ import math
 import os
 import re
 import tomllib
-import zlib
 
 import bpy
 import numpy as np
@@ -27,7 +26,7 @@ from mathutils import Matrix, Vector
 
 from .. import api
 
-from .default_scene import mesh_from_arrays, mesh_triangles, mesh_vertices, principled_material
+from .mesh_data import mesh_fingerprint, mesh_from_arrays, mesh_triangles, mesh_vertices, principled_material
 
 PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MESH_DIR = os.path.join(PACKAGE_DIR, "meshes")
@@ -292,13 +291,6 @@ def object_mesh_arrays(obj):
     if len(triangles) == 0:
         raise LevelError(f"{obj.name} has no faces")
     return mesh_vertices(obj.data), triangles
-
-
-def mesh_fingerprint(obj):
-    """Names the geometry of a mesh object: its data block, vertex count and a CRC of the coordinates,
-    so that results computed on it (the leak test) can tell when the mesh was swapped or edited."""
-    vertices = mesh_vertices(obj.data)
-    return f"{obj.data.name}:{len(vertices)}:{zlib.crc32(vertices.tobytes())}"
 
 
 # --- building a level's scene --------------------------------------------------------------------
