@@ -18,7 +18,7 @@ from mathutils import Matrix, Vector
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import leak_overlay, levels, overlay, probe  # noqa: E402
+from raylab.blender import leak_overlay, levels, probe  # noqa: E402
 
 LEVELS_DIR = os.path.join(ROOT, "levels")
 LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
@@ -90,10 +90,10 @@ def test_opening_a_level_builds_its_scene_and_settings(level_id):
             actual = getattr(getattr(scene, group), key)
             actual = list(actual) if isinstance(value, list) else actual
             assert same(actual, value), f"{group}.{key} = {actual!r}, level.toml says {value!r}"
-    has_ray = overlay.PROBE_OBJECT_NAME in scene.objects
+    has_ray = probe.PROBE_OBJECT_NAME in scene.objects
     assert has_ray == data.get("raylab", {}).get("probe_enabled", False)
     if has_ray:
-        assert scene.raylab.probe_object == scene.objects[overlay.PROBE_OBJECT_NAME]
+        assert scene.raylab.probe_object == scene.objects[probe.PROBE_OBJECT_NAME]
     tasks = levels.task_list(scene)
     assert [text for text, _ in tasks] == [t["text"] for t in data.get("tasks", [])]
     assert not any(tick(scene)), "no task may be done before the student acts"

@@ -5,7 +5,7 @@ centre of the mesh's box out through the vertex or edge where they slipped betwe
 import bpy
 import numpy as np
 
-from . import levels, overlay
+from . import draw, levels
 
 RAY_COLOR = (1.0, 0.15, 0.1, 0.9)
 CROSSING_COLOR = (1.0, 0.85, 0.1, 1.0)
@@ -34,8 +34,8 @@ def _draw():
     if segments is None:
         return
     starts, ends, crossings = segments
-    overlay.draw_segments(starts, ends, np.tile(np.array(RAY_COLOR, np.float32), (len(starts), 1)), True, 2.0)
-    overlay.draw_points(crossings, CROSSING_COLOR, True, 6.0)
+    draw.draw_segments(starts, ends, np.tile(np.array(RAY_COLOR, np.float32), (len(starts), 1)), True, 2.0)
+    draw.draw_points(crossings, CROSSING_COLOR, True, 6.0)
 
 
 def register():

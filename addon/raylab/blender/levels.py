@@ -25,6 +25,7 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from .. import api
+from . import draw
 
 from .mesh_data import mesh_fingerprint, mesh_from_arrays, mesh_triangles, mesh_vertices, principled_material
 
@@ -401,8 +402,8 @@ def _new_scene(level):
 
 
 def _place_probe(scene, level):
-    from . import overlay
-    ray = overlay.ensure_probe_object(scene)
+    from . import probe
+    ray = probe.ensure_probe_object(scene)
     s = level.scene_scale
     if isinstance(level.probe, dict) and "location" in level.probe:
         ray.matrix_world = _look_at(Vector(level.probe["location"]) * s,
@@ -613,15 +614,8 @@ def check_tasks(scene):
         done[index] = 1
         st["done"] = done
         _take_snapshots(scene, level, index + 1)
-        _redraw_sidebars()
+        draw.tag_redraw()
     return [bool(d) for d in done]
-
-
-def _redraw_sidebars():
-    for window in getattr(bpy.context.window_manager, "windows", []):
-        for area in window.screen.areas:
-            if area.type == 'VIEW_3D':
-                area.tag_redraw()
 
 
 @bpy.app.handlers.persistent
