@@ -19,7 +19,8 @@ from mathutils import Matrix, Vector
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import leak_overlay, levels, overlay, probe  # noqa: E402
+from raylab.blender import levels, mesh_data, probe  # noqa: E402
+from raylab.blender.experiments import leak  # noqa: E402
 
 LEVELS_DIR = os.path.join(ROOT, "levels")
 LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
@@ -91,10 +92,10 @@ def test_opening_a_level_builds_its_scene_and_settings(level_id):
             actual = getattr(getattr(scene, group), key)
             actual = list(actual) if isinstance(value, list) else actual
             assert same(actual, value), f"{group}.{key} = {actual!r}, level.toml says {value!r}"
-    has_ray = overlay.PROBE_OBJECT_NAME in scene.objects
+    has_ray = probe.PROBE_OBJECT_NAME in scene.objects
     assert has_ray == data.get("raylab", {}).get("probe_enabled", False)
     if has_ray:
-        assert scene.raylab.probe_object == scene.objects[overlay.PROBE_OBJECT_NAME]
+        assert scene.raylab.probe_object == scene.objects[probe.PROBE_OBJECT_NAME]
     tasks = levels.task_list(scene)
     assert [text for text, _ in tasks] == [t["text"] for t in data.get("tasks", [])]
     assert not any(tick(scene)), "no task may be done before the student acts"
@@ -156,13 +157,13 @@ def test_where_methods_fail_ticks_the_leak_test_then_renders_with_each_setting()
     scene.render.resolution_x, scene.render.resolution_y = 64, 48
     assert timer_tick(scene) == [False, False, False, False]
     assert bpy.ops.raylab.level_leak_test() == {'FINISHED'}
-    leaks = scene[levels.LEAK_KEY]
+    leaks = scene[leak.LEAK_KEY]
     # Rays from inside the closed sphere through its vertices and edges: the watertight test lets none
     # out, Möller–Trumbore some (the lesson of the level).
     assert leaks["rays"] > 1000 and leaks["watertight"] == 0 and leaks["moller_trumbore"] > 0
     # The escaped rays, for the viewport: from the centre out through the surface, where they slipped.
-    starts, ends, crossings = leak_overlay.leak_segments(scene)
-    assert len(crossings) == min(leaks["moller_trumbore"], levels.MAX_LEAKS_DRAWN)
+    starts, ends, crossings = leak.leak_segments(scene)
+    assert len(crossings) == min(leaks["moller_trumbore"], leak.MAX_LEAKS_DRAWN)
     obj = levels.level_mesh_object(scene)
     radius = np.linalg.norm(crossings - np.array(obj.matrix_world.translation), axis=1)
     assert np.allclose(radius, radius.mean(), rtol=0.02)  # all on the sphere: vertices and edge midpoints
@@ -170,9 +171,9 @@ def test_where_methods_fail_ticks_the_leak_test_then_renders_with_each_setting()
     # Edited geometry: the rays belong to the old mesh and are no longer drawn.
     x = obj.data.vertices[0].co.x
     obj.data.vertices[0].co.x = x + 0.01
-    assert leak_overlay.leak_segments(scene) is None
+    assert leak.leak_segments(scene) is None
     obj.data.vertices[0].co.x = x
-    assert leak_overlay.leak_segments(scene) is not None
+    assert leak.leak_segments(scene) is not None
     assert timer_tick(scene) == [True, False, False, False]
     bpy.ops.render.render()
     assert "raylab_last_render" in scene
@@ -225,7 +226,7 @@ def test_mesh_swap_replaces_the_mesh_and_keeps_the_settings():
     assert scene.raylab.max_depth == 3 and scene.raylab.structure == "aabb" and not scene.raylab.spin
 
     # One of the student's own mesh objects, from their own scene.
-    own = bpy.data.objects.new("My Pyramid", levels.mesh_from_arrays(
+    own = bpy.data.objects.new("My Pyramid", mesh_data.mesh_from_arrays(
         "pyramid", np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32),
         np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], np.uint32)))
     assert "object:My Pyramid" in levels.mesh_sources(scene)

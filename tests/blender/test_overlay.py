@@ -13,7 +13,7 @@ from mathutils import Matrix
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import overlay, structure_cache  # noqa: E402
+from raylab.blender import overlay, probe, spin, structure_cache  # noqa: E402
 
 
 @pytest.fixture
@@ -133,7 +133,7 @@ def test_spin_turns_the_object_on_frame_change(monkey_scene):
     scene.raylab.spin = True
     scene.frame_set(3)
     scene.raylab.spin = False
-    assert monkey.rotation_euler.z == pytest.approx(start + overlay.SPIN_STEP)
+    assert monkey.rotation_euler.z == pytest.approx(start + spin.SPIN_STEP)
     bpy.context.view_layer.update()
     lo, hi = drawn_world_box(monkey, scene)  # and the world AABB turned with it
     np.testing.assert_allclose((lo, hi), world_vertex_bounds(monkey), atol=1e-4)
@@ -142,8 +142,8 @@ def test_spin_turns_the_object_on_frame_change(monkey_scene):
 def test_ensure_probe_object_creates_one_arrow(monkey_scene):
     scene = monkey_scene[0]
     scene.raylab.probe_object = None
-    ray = overlay.ensure_probe_object(scene)
-    assert ray.name == overlay.PROBE_OBJECT_NAME and ray.empty_display_type == 'SINGLE_ARROW'
-    assert overlay.ensure_probe_object(scene) is ray
+    ray = probe.ensure_probe_object(scene)
+    assert ray.name == probe.PROBE_OBJECT_NAME and ray.empty_display_type == 'SINGLE_ARROW'
+    assert probe.ensure_probe_object(scene) is ray
     assert scene.raylab.probe_object is ray
     assert sum(o.type == 'EMPTY' for o in scene.objects) == 1

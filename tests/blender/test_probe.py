@@ -15,7 +15,7 @@ from mathutils import Matrix, Vector
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import overlay, probe, structure_cache  # noqa: E402
+from raylab.blender import probe, structure_cache  # noqa: E402
 
 # Rays in the torus's own space (major radius 1, minor 0.25, in the XY plane; root cube ±1.25).
 # None runs along an octant plane (multiples of 1.25 / 8), where a round-off decides which side.
@@ -42,7 +42,7 @@ def torus_scene():
     settings.structure, settings.max_depth, settings.leaf_size = "octree", 3, 8
     settings.objects, settings.probe_source, settings.fan_enabled = 'ALL', 'OBJECT', False
     settings.probe_object = None
-    ray = overlay.ensure_probe_object(scene)
+    ray = probe.ensure_probe_object(scene)
     bpy.context.view_layer.update()
     return scene, torus, ray
 

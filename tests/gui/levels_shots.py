@@ -41,7 +41,8 @@ def finish():
 
 try:
     import raylab  # noqa: E402
-    from raylab.blender import leak_overlay, levels, probe  # noqa: E402
+    from raylab.blender import levels, probe  # noqa: E402
+    from raylab.blender.experiments import leak  # noqa: E402
 except Exception:
     report["error"] = traceback.format_exc()
     finish()
@@ -129,7 +130,7 @@ def describe_leaks(level_id):
     """The escaped rays of the leak test, projected into the viewport as the overlay draws them."""
     _, area, region, _ = view3d()
     rv3d = area.spaces.active.region_3d
-    starts, ends, _ = leak_overlay.leak_segments(bpy.context.scene)
+    starts, ends, _ = leak.leak_segments(bpy.context.scene)
     segments = []
     for a, b in zip(starts, ends):
         pa, pb = location_3d_to_region_2d(region, rv3d, Vector(a)), location_3d_to_region_2d(region, rv3d, Vector(b))

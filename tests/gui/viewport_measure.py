@@ -21,7 +21,7 @@ sys.path.insert(0, os.path.join(ROOT, "addon"))
 sys.path.insert(0, HERE)
 from blender_window import view3d  # noqa: E402
 import raylab  # noqa: E402
-from raylab.blender import overlay, structure_cache  # noqa: E402
+from raylab.blender import draw, overlay, structure_cache  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 MESH = ARGS[0]
@@ -72,7 +72,7 @@ def measure():
         geometry = overlay.line_geometry(obj, scene, depsgraph)
         arrays = time.perf_counter()
         with bpy.context.temp_override(window=window, area=area, region=region):
-            overlay.make_batch('LINES', geometry.positions, geometry.colors, geometry.indices)
+            draw.make_batch('LINES', geometry.positions, geometry.colors, geometry.indices)
         uploaded = time.perf_counter()
         print(f"{depth:5d} {geometry.box_count:6d} {1000 * entry.structure.build_seconds:9.1f}"
               f" {1000 * (arrays - built):10.1f} {1000 * (uploaded - arrays):10.1f}"

@@ -46,7 +46,7 @@ def set_up():
     settings.fade = False          # full-strength lines: the test looks for the line colour itself
     settings.color_by_depth = False
     settings.xray = True           # no box edge hidden behind the sphere
-    overlay.ensure_probe_object(scene)
+    probe.ensure_probe_object(scene)
     settings.probe_enabled = False
 
     _, area, region, _ = view3d()

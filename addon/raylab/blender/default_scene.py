@@ -10,62 +10,10 @@ import bpy
 import numpy as np
 
 from .. import api
-from . import compat
+from .mesh_data import mesh_from_arrays, principled_material
 
 GOAT_PATH = os.path.join(os.path.dirname(api.__file__), "meshes", "goathead.obj")
 GOAT_SCALE = 0.25
-
-
-# Faces meeting at a sharper angle keep their edge under smooth shading (Blender's auto smooth).
-SMOOTH_ANGLE = math.radians(60.0)
-
-
-def mesh_vertices(mesh):
-    """The vertex coordinates of a bpy mesh as a (V,3) float32 array (foreach_get, no Python loop)."""
-    vertices = np.empty(3 * len(mesh.vertices), np.float32)
-    mesh.vertices.foreach_get("co", vertices)
-    return vertices.reshape(-1, 3)
-
-
-def mesh_triangles(mesh):
-    """Blender's triangulation of a bpy mesh (its loop triangles) as a (T,3) uint32 array."""
-    mesh.calc_loop_triangles()
-    triangles = np.empty(3 * len(mesh.loop_triangles), np.int32)
-    mesh.loop_triangles.foreach_get("vertices", triangles)
-    return triangles.reshape(-1, 3).astype(np.uint32)
-
-
-def mesh_from_arrays(name, vertices, triangles, smooth=False):
-    """A new bpy mesh of (V,3) vertices and (T,3) triangles, filled with foreach_set (no Python loop).
-
-    smooth: Shade Smooth with auto smooth at SMOOTH_ANGLE, as a curved scanned mesh is meant to look.
-    """
-    mesh = bpy.data.meshes.new(name)
-    mesh.vertices.add(len(vertices))
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(vertices, np.float32).ravel())
-    mesh.loops.add(3 * len(triangles))
-    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(triangles, np.int32).ravel())
-    mesh.polygons.add(len(triangles))
-    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(triangles), 3, dtype=np.int32))
-    mesh.polygons.foreach_set("loop_total", np.full(len(triangles), 3, np.int32))
-    mesh.update(calc_edges=True)
-    mesh.validate()
-    if smooth:
-        mesh.polygons.foreach_set("use_smooth", np.ones(len(triangles), bool))
-        compat.smooth_by_angle(mesh, SMOOTH_ANGLE)
-        mesh.update()
-    return mesh
-
-
-def principled_material(name, colour, roughness=0.5, metallic=0.0):
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    bsdf = material.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
-    bsdf.inputs["Roughness"].default_value = roughness
-    bsdf.inputs["Metallic"].default_value = metallic
-    material.diffuse_color = (*colour, 1.0)
-    return material
 
 
 def _add_object(scene, name, data, location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0)):

@@ -6,10 +6,10 @@ import textwrap
 import bpy
 import bpy.utils.previews
 
-from .. import api
-from . import leak_overlay, levels
+from . import levels
 
 _previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
+TASK_SECTIONS = []  # draw(layout, context) hooks drawn under the tasks, before the controls
 CHARACTER_WIDTH = 7.5  # pixels of an average sidebar character at UI scale 1, for wrapping
 
 
@@ -131,14 +131,8 @@ class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
             column = layout.column()
             column.active = done or i == first_open  # later tasks wait their turn
             _label_lines(column, wrapped(context, text, 4), 'CHECKBOX_HLT' if done else 'CHECKBOX_DEHLT')
-        leaks = context.scene.get(levels.LEAK_KEY)
-        if leaks is not None:
-            box = layout.box()
-            box.label(text=f"Leak test: {leaks['rays']:,} rays from inside", icon='MOD_FLUIDSIM')
-            for test, info in api.TRIANGLE_TEST_INFO.items():
-                box.label(text=f"{info['label']}: {leaks[test]:,} leaked")
-            if leak_overlay.leak_segments(context.scene) is not None:
-                box.label(text="Escaped rays: red in the viewport", icon='INFO')
+        for draw_section in TASK_SECTIONS:  # the experiments' results (experiments/*.py add theirs)
+            draw_section(layout, context)
         if tasks and first_open is None:
             layout.label(text="All done: on to the next level!", icon='FUND')
         controls = current_level(context).controls

@@ -14,9 +14,10 @@ import math
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from .. import api
-from . import overlay, scene_export, structure_cache
+from . import draw, scene_export, structure_cache
 
 STATUSES = api.RAY_STATUSES  # in rising priority
 STATUS_COLORS = {
@@ -269,7 +270,7 @@ def _draw_view():
         origins, ends, statuses = result.fan
         colors = np.array([STATUS_COLORS[s] for s in statuses], dtype=np.float32)
         colors[:, 3] = 0.7
-        overlay.draw_segments(origins, ends, colors, xray, 1.0)
+        draw.draw_segments(origins, ends, colors, xray, 1.0)
     drawing = result.drawing
     if drawing is None:
         return
@@ -278,18 +279,18 @@ def _draw_view():
         _draw_boxes(visited_lo, visited_hi, VISITED_COLOR, model, xray, 3.0)
     start, end = drawing["ray"]
     color = np.array([STATUS_COLORS[result.public["status"]]], dtype=np.float32)
-    overlay.draw_segments(start[None], end[None], color, xray, 3.0)
-    overlay.draw_points(drawing["entries"], ENTRY_COLOR, xray, 7.0)
-    overlay.draw_points(drawing["hits"], HIT_COLOR, xray, 12.0)
+    draw.draw_segments(start[None], end[None], color, xray, 3.0)
+    draw.draw_points(drawing["entries"], ENTRY_COLOR, xray, 7.0)
+    draw.draw_points(drawing["hits"], HIT_COLOR, xray, 12.0)
 
 
 def _draw_boxes(lo, hi, color, model, xray, width):
     if len(lo) == 0:
         return
-    positions, indices = overlay.box_wireframe(lo, hi)
+    positions, indices = draw.box_wireframe(lo, hi)
     colors = np.tile(np.asarray(color, dtype=np.float32), (len(positions), 1))
-    batch = overlay.make_batch('LINES', positions, colors, indices, overlay.THICK)
-    overlay.draw_batch(batch, model, xray, overlay.THICK, width)
+    batch = draw.make_batch('LINES', positions, colors, indices, draw.THICK)
+    draw.draw_batch(batch, model, xray, draw.THICK, width)
 
 
 def _draw_text():
@@ -320,7 +321,41 @@ def _draw_text():
     blf.disable(font, blf.SHADOW)
 
 
-# --- operator --------------------------------------------------------------------------------------
+# --- the ray object and its operator --------------------------------------------------------------------------------------
+
+PROBE_OBJECT_NAME = "raylab ray"
+
+
+def ensure_probe_object(scene):
+    """The scene's ray object (scene.raylab.probe_object), created if missing: an Empty drawn as a
+    single arrow named "raylab ray". The ray leaves its origin along its local -Z axis; a new one is
+    placed in front of the shown meshes (along -Y) aiming at their centre."""
+    settings = scene.raylab
+    if settings.probe_object is not None and settings.probe_object.name in scene.objects:
+        return settings.probe_object
+    obj = scene.objects.get(PROBE_OBJECT_NAME)
+    if obj is None:
+        obj = bpy.data.objects.new(PROBE_OBJECT_NAME, None)
+        obj.empty_display_type = 'SINGLE_ARROW'
+        scene.collection.objects.link(obj)
+        centre, radius = _targets_sphere(scene)
+        # Set as matrix_world so the probe sees the new place before the depsgraph re-evaluates.
+        obj.matrix_world = (Matrix.Translation((centre[0], centre[1] - 3.0 * radius, centre[2]))
+                            @ Matrix.Rotation(math.pi / 2, 4, 'X'))  # local -Z onto world +Y
+        obj.empty_display_size = radius
+    settings.probe_object = obj
+    return obj
+
+
+def _targets_sphere(scene):
+    corners = [structure_cache.transform_points(structure_cache.matrix_of(o), np.array(o.bound_box))
+               for o in structure_cache.target_objects(scene)]
+    if not corners:
+        return np.zeros(3), 1.0
+    corners = np.concatenate(corners)
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    return (lo + hi) / 2, max(float(np.linalg.norm(hi - lo)) / 2, 0.1)
+
 
 class RAYLAB_OT_probe_add(bpy.types.Operator):
     """Add the ray object (an Empty "raylab ray"; the ray leaves along its local -Z) and turn the probe on"""
@@ -330,7 +365,7 @@ class RAYLAB_OT_probe_add(bpy.types.Operator):
 
     def execute(self, context):
         settings = context.scene.raylab
-        overlay.ensure_probe_object(context.scene)
+        ensure_probe_object(context.scene)
         settings.probe_source = 'OBJECT'
         settings.probe_enabled = True
         return {'FINISHED'}

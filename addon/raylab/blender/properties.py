@@ -9,6 +9,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatVectorProperty, FloatPro
                        PointerProperty, StringProperty)
 
 from .. import api
+from . import draw
 
 
 def structure_items(drawable_only=False):
@@ -27,10 +28,7 @@ VRT_GREEN = (0.2, 1.0, 0.2, 1.0)
 
 def _redraw(self, context):
     """Overlay settings only change what is drawn: ask every 3D viewport to redraw."""
-    for window in getattr(context.window_manager, "windows", []):
-        for area in window.screen.areas:
-            if area.type == 'VIEW_3D':
-                area.tag_redraw()
+    draw.tag_redraw(context)
 
 
 def _depth_min_changed(self, context):
@@ -46,8 +44,8 @@ def _depth_max_changed(self, context):
 
 
 def _spin_changed(self, context):
-    from . import overlay
-    overlay.update_spin_timer()
+    from . import spin
+    spin.update_spin_timer()
     _redraw(self, context)
 
 

@@ -13,7 +13,7 @@ import numpy as np
 from .. import api
 from . import compat
 
-from .default_scene import mesh_triangles, mesh_vertices
+from .mesh_data import corner_normals, mesh_triangles, mesh_vertices
 
 # Blinn-Phong exponent equivalent to a GGX roughness r (alpha = r^2, n = 2 / alpha^2 - 2; Walter et al.
 # 2007, Karis 2013), clamped so a roughness of 0 stays finite and a rough surface keeps a faint highlight.
@@ -113,16 +113,6 @@ def _mesh_arrays(mesh, object_name):
         raise ExportError(f"Object '{object_name}': vertex {bad} of mesh '{mesh.name}' has a NaN or "
                           f"infinite coordinate; fix or delete it")
     return vertices, triangles
-
-
-def corner_normals(mesh):
-    """(T,3,3) normals of the loop triangles' corners as Blender shades them: Shade Smooth, Flat (the
-    face normal at each corner) and auto smooth's sharp edges. Needs calc_loop_triangles() first."""
-    corners = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-    mesh.loop_triangles.foreach_get("loops", corners)
-    normals = compat.corner_normals(mesh)[corners]
-    # A degenerate face can give a non-finite normal: zero makes the renderer shade it flat.
-    return np.nan_to_num(normals, nan=0.0, posinf=0.0, neginf=0.0).reshape(-1, 3, 3)
 
 
 def _material_slot(obj, material_index, materials):

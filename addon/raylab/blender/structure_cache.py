@@ -15,7 +15,7 @@ import numpy as np
 from .. import api
 
 from . import properties
-from .default_scene import mesh_triangles, mesh_vertices
+from .mesh_data import mesh_triangles, mesh_vertices
 
 stats = {"structure_builds": 0, "mesh_reads": 0}
 

@@ -1,0 +1,73 @@
+"""Drawing over the 3D viewport: GPU batches of coloured lines and points, box wireframes, and the
+request to redraw every 3D viewport. The gpu module is imported when drawing only (it is unavailable in
+background mode), so everything here can be imported headless."""
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+# The 12 edges of a box over its 8 corners, corner c = (x bit 0, y bit 1, z bit 2) of lo/hi.
+BOX_EDGES = np.array([(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7),
+                      (0, 4), (1, 5), (2, 6), (3, 7)], dtype=np.uint32)
+_CORNER_BITS = np.array([[(c >> axis) & 1 for axis in range(3)] for c in range(8)], dtype=bool)
+
+THIN = 'SMOOTH_COLOR'            # 1-pixel lines and points: cheap even for 100k boxes
+THICK = 'POLYLINE_SMOOTH_COLOR'  # wide lines (a geometry shader): for the few lines that stand out
+
+
+def tag_redraw(context=None):
+    """Asks every 3D viewport of every window to redraw."""
+    wm = (context or bpy.context).window_manager
+    for window in getattr(wm, "windows", []):
+        for area in window.screen.areas:
+            if area.type == 'VIEW_3D':
+                area.tag_redraw()
+
+
+def box_wireframe(lo, hi):
+    """Corners (8B,3) float32 and edge indices (12B,2) uint32 of B boxes."""
+    corners = np.where(_CORNER_BITS[None, :, :], hi[:, None, :], lo[:, None, :]).reshape(-1, 3)
+    indices = (BOX_EDGES[None, :, :] + (8 * np.arange(len(lo), dtype=np.uint32))[:, None, None]).reshape(-1, 2)
+    return np.ascontiguousarray(corners, dtype=np.float32), np.ascontiguousarray(indices, dtype=np.uint32)
+
+
+def make_batch(primitive, positions, colors, indices=None, shader_name=THIN):
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+    return batch_for_shader(gpu.shader.from_builtin(shader_name), primitive, {"pos": positions, "color": colors},
+                            indices=indices)
+
+
+def draw_batch(batch, model_matrix, xray, shader_name=THIN, width=1.0, point_size=1.0):
+    """Draws a batch made by make_batch with `model_matrix` (4,4) carrying it to the world."""
+    import gpu
+    shader = gpu.shader.from_builtin(shader_name)
+    gpu.state.blend_set('ALPHA')
+    gpu.state.depth_test_set('NONE' if xray else 'LESS_EQUAL')
+    gpu.state.depth_mask_set(False)
+    gpu.state.point_size_set(point_size)
+    if shader_name == THICK:
+        shader.bind()
+        shader.uniform_float("viewportSize", gpu.state.viewport_get()[2:])
+        shader.uniform_float("lineWidth", width)
+    with gpu.matrix.push_pop():
+        gpu.matrix.multiply_matrix(Matrix(np.asarray(model_matrix).tolist()))
+        batch.draw(shader)
+    gpu.state.depth_test_set('NONE')
+    gpu.state.blend_set('NONE')
+
+
+def draw_segments(starts, ends, colors, xray, width):
+    """World-space segments (N,3)-(N,3), one RGBA colour each; wide ones with the polyline shader."""
+    positions = np.ascontiguousarray(np.stack([starts, ends], axis=1).reshape(-1, 3), dtype=np.float32)
+    shader = THICK if width > 1.0 else THIN
+    batch = make_batch('LINES', positions, np.repeat(colors, 2, axis=0), shader_name=shader)
+    draw_batch(batch, np.identity(4), xray, shader, width)
+
+
+def draw_points(points, color, xray, size):
+    """World-space points (N,3) in one RGBA colour, `size` pixels across."""
+    if len(points) == 0:
+        return
+    positions = np.ascontiguousarray(points, dtype=np.float32)
+    colors = np.tile(np.asarray(color, dtype=np.float32), (len(points), 1))
+    draw_batch(make_batch('POINTS', positions, colors), np.identity(4), xray, point_size=size)

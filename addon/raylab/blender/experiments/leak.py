@@ -1,0 +1,135 @@
+"""The leak experiment of the where_methods_fail level: rays shot from inside the closed level mesh
+through its vertices and edge midpoints, with each triangle test, slip out between two triangles when
+the test is not watertight. The experiment owns its parts: the test itself (results on the scene under
+scene["raylab_leak_test"]), its operator (Count Leaking Rays), its overlay and its lines in the level's
+Tasks panel.
+
+The overlay: after Count Leaking Rays, the rays that Möller–Trumbore let out of the closed level mesh
+are drawn in red, from the centre of the mesh's box out through the vertex or edge where they slipped
+between two triangles (a yellow dot), and on beyond the surface. Drawn through the mesh: the rays start
+inside it.
+"""
+import bpy
+import numpy as np
+
+from ... import api
+from .. import draw, level_panels
+from ..levels import LevelError, level_mesh_object, object_mesh_arrays
+from ..mesh_data import mesh_fingerprint
+
+LEAK_KEY = "raylab_leak_test"
+MAX_LEAKS_DRAWN = 400
+RAY_COLOR = (1.0, 0.15, 0.1, 0.9)
+CROSSING_COLOR = (1.0, 0.85, 0.1, 1.0)
+OVERSHOOT = 1.6  # each ray is drawn to 1.6 times its distance from the centre to the surface
+
+
+# --- the experiment -------------------------------------------------------------------------------
+
+def leak_test(scene):
+    """Shoots rays from the centre of the level mesh's box through every vertex and every edge midpoint,
+    the places where two triangles meet, with each triangle test. From inside a closed mesh every ray
+    must hit; the ones that hit nothing leaked. Stores and returns {rays, one count per name in
+    api.TRIANGLE_TESTS, centre, escaped, mesh}: the box centre and the points where up to MAX_LEAKS_DRAWN escaped rays
+    of the leakiest test (spread over all of them) passed through (object space, flat lists), for the viewport to draw;
+    `mesh` is the mesh_fingerprint they belong to."""
+    obj = level_mesh_object(scene)
+    if obj is None:
+        raise LevelError("the scene is not a level (open one first)")
+    vertices, triangles = object_mesh_arrays(obj)
+    targets = np.concatenate([vertices] + [(vertices[triangles[:, i]] + vertices[triangles[:, (i + 1) % 3]]) / 2
+                                           for i in range(3)]).astype(np.float32)
+    centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
+    directions = targets - centre
+    keep = np.linalg.norm(directions, axis=1) > 0  # a vertex at the very centre gives no direction
+    origins = np.repeat(centre[None].astype(np.float32), int(keep.sum()), axis=0)
+    result = {"rays": int(keep.sum()), "centre": [float(c) for c in centre], "mesh": mesh_fingerprint(obj)}
+    escaped = targets[:0]
+    for test in api.TRIANGLE_TESTS:
+        # Every triangle tested for every ray: the count measures the triangle test alone.
+        structure = api.build(vertices, triangles, structure="none", triangle_test=test)
+        missed = ~structure.intersect(origins, directions[keep]).hit
+        result[test] = int(missed.sum())
+        if missed.sum() > len(escaped):  # the viewport draws the leakiest test's escapes
+            escaped = targets[keep][missed]
+    spread = np.linspace(0, len(escaped) - 1, min(len(escaped), MAX_LEAKS_DRAWN)).astype(int)
+    result["escaped"] = escaped[spread].ravel().tolist()
+    scene[LEAK_KEY] = result
+    return result
+
+
+# --- the overlay (GUI only) -------------------------------------------------------------------------
+
+def leak_segments(scene):
+    """World-space starts, ends and surface crossings (each (N,3)) of the escaped rays to draw, or None:
+    no leak test in this scene, or the level mesh changed since."""
+    leaks = scene.get(LEAK_KEY)
+    obj = level_mesh_object(scene)
+    if leaks is None or obj is None or not leaks.get("escaped") or leaks.get("mesh") != mesh_fingerprint(obj):
+        return None
+    matrix = np.array(obj.matrix_world)
+    centre = np.asarray(leaks["centre"], dtype=float)
+    crossings = np.asarray(leaks["escaped"], dtype=float).reshape(-1, 3)
+    ends = centre + OVERSHOOT * (crossings - centre)
+    starts = np.repeat(centre[None], len(crossings), axis=0)
+    return tuple(p @ matrix[:3, :3].T + matrix[:3, 3] for p in (starts, ends, crossings))
+
+
+def _draw():
+    segments = leak_segments(bpy.context.scene)
+    if segments is None:
+        return
+    starts, ends, crossings = segments
+    draw.draw_segments(starts, ends, np.tile(np.array(RAY_COLOR, np.float32), (len(starts), 1)), True, 2.0)
+    draw.draw_points(crossings, CROSSING_COLOR, True, 6.0)
+
+
+# --- the panel lines and the operator ------------------------------------------------------------------
+
+def draw_results(layout, context):
+    """The leak test's counts in the level's Tasks panel (a level_panels.TASK_SECTIONS hook)."""
+    leaks = context.scene.get(LEAK_KEY)
+    if leaks is None:
+        return
+    box = layout.box()
+    box.label(text=f"Leak test: {leaks['rays']:,} rays from inside", icon='MOD_FLUIDSIM')
+    for test, info in api.TRIANGLE_TEST_INFO.items():
+        box.label(text=f"{info['label']}: {leaks[test]:,} leaked")
+    if leak_segments(context.scene) is not None:
+        box.label(text="Escaped rays: red in the viewport", icon='INFO')
+
+
+class RAYLAB_OT_level_leak_test(bpy.types.Operator):
+    """Shoot rays from the mesh's centre through its vertices and edges with Möller–Trumbore and with the
+    watertight test, and count the rays that slip out through a closed mesh"""
+    bl_idname = "raylab.level_leak_test"
+    bl_label = "Count Leaking Rays"
+    bl_options = {'REGISTER'}
+
+    def execute(self, context):
+        try:
+            result = leak_test(context.scene)
+        except (LevelError, ValueError) as error:
+            self.report({'ERROR'}, f"raylab: {error}")
+            return {'CANCELLED'}
+        leaked = ", ".join(f"{info['label']} {result[test]:,}" for test, info in api.TRIANGLE_TEST_INFO.items())
+        self.report({'INFO'}, f"raylab: of {result['rays']:,} rays, leaked: {leaked}")
+        return {'FINISHED'}
+
+
+_handles = []
+
+
+def register():
+    bpy.utils.register_class(RAYLAB_OT_level_leak_test)
+    _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw, (), 'WINDOW', 'POST_VIEW'))
+    level_panels.TASK_SECTIONS.append(draw_results)
+
+
+def unregister():
+    if draw_results in level_panels.TASK_SECTIONS:
+        level_panels.TASK_SECTIONS.remove(draw_results)
+    for handle in _handles:
+        bpy.types.SpaceView3D.draw_handler_remove(handle, 'WINDOW')
+    _handles.clear()
+    bpy.utils.unregister_class(RAYLAB_OT_level_leak_test)

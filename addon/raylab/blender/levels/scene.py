@@ -1,0 +1,215 @@
+"""Building a level's scene from its level.toml, from scratch: the level's mesh (read with raylab.load_mesh,
+so Blender holds exactly the triangles raylab measures), a camera, a sun, the probe's ray object when the
+level uses the probe, and the scene.raylab / scene.raylab_render settings; switching levels, and swapping
+the level's mesh (the object, its place and every setting stay)."""
+import math
+import re
+
+import bpy
+from mathutils import Matrix, Vector
+
+from ..mesh_data import mesh_from_arrays, principled_material
+from .meshes import mesh_credit, normalised, object_mesh_arrays, shipped_mesh_arrays
+from .reading import LevelError, available_levels, find_level
+from .state import MESH_OBJECT_NAME, STATE_KEY, level_mesh_object, state
+from .tasks import _take_snapshots, check_tasks
+
+MESH_SIZE = 2.0          # the level mesh's largest side, in metres (times the level's scene_scale)
+
+
+def _check_settings(level):
+    """Every setting of the toml must be a writable property of its group, before anything is built."""
+    scene_properties = bpy.types.Scene.bl_rna.properties
+    for group, values in level.settings.items():
+        if group not in scene_properties:
+            if values:
+                raise LevelError(f"{level.id}: [{group}] is set but scene.{group} is not registered")
+            continue
+        rna = scene_properties[group].fixed_type.properties
+        for key in values:
+            if key not in rna or rna[key].is_readonly:
+                raise LevelError(f"{level.folder}/level.toml: [{group}] has no writable setting '{key}'")
+    for control in level.controls:
+        group, _, name = control.partition(".")
+        known = (_operator_exists(control.partition(":")[2]) if group.startswith("operator:")
+                 else group in scene_properties and name in scene_properties[group].fixed_type.properties)
+        if not known:
+            raise LevelError(f"{level.folder}/level.toml: control {control!r} does not exist")
+
+
+def _operator_exists(idname):
+    module, _, name = idname.partition(".")
+    try:
+        getattr(getattr(bpy.ops, module), name).get_rna_type()
+        return True
+    except (AttributeError, KeyError):
+        return False
+
+
+def _apply_settings(scene, level):
+    for group, values in level.settings.items():
+        target = getattr(scene, group)
+        for key, value in values.items():
+            try:
+                setattr(target, key, value)
+            except (TypeError, ValueError) as error:
+                raise LevelError(f"{level.folder}/level.toml: [{group}] {key} = {value!r}: {error}") from None
+
+
+def _look_at(location, target):
+    direction = Vector(target) - Vector(location)
+    return Matrix.Translation(location) @ direction.to_track_quat('-Z', 'Y').to_matrix().to_4x4()
+
+
+def _set_mesh(obj, vertices, triangles, size, source, credit):
+    old = obj.data
+    mesh = mesh_from_arrays(f"level {source}", normalised(vertices, size), triangles, smooth=True)
+    for material in old.materials:
+        mesh.materials.append(material)
+    obj.data = mesh
+    if old.users == 0:
+        bpy.data.meshes.remove(old)
+    obj["raylab_credit"] = credit
+    obj["raylab_mesh_source"] = source
+
+
+def _new_scene(level):
+    scene = bpy.data.scenes.new(f"raylab: {level.title}")
+    s = level.scene_scale
+    resolution = level.scene.get("resolution", [480, 360])
+    scene.render.resolution_x, scene.render.resolution_y = int(resolution[0]), int(resolution[1])
+    scene.render.resolution_percentage = 100
+    try:
+        scene.render.engine = "RAYLAB"
+    except TypeError:
+        pass  # the render engine is not registered: the level still teaches with the overlays
+
+    mesh = bpy.data.meshes.new("level mesh")
+    mesh.materials.append(principled_material("level mesh", tuple(level.mesh.get("color", (0.8, 0.55, 0.35)))))
+    obj = bpy.data.objects.new(MESH_OBJECT_NAME, mesh)
+    scene.collection.objects.link(obj)
+    filename = level.mesh["file"]
+    _set_mesh(obj, *shipped_mesh_arrays(filename), MESH_SIZE * s, filename, mesh_credit(filename))
+
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.lens = float(level.camera.get("lens", 50.0))
+    camera.data.clip_start, camera.data.clip_end = 0.1 * s, 1000.0 * s
+    camera.matrix_world = _look_at(Vector(level.camera.get("location", (4.5, -6.0, 3.0))) * s,
+                                   Vector(level.camera.get("target", (0.0, 0.0, 0.0))) * s)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun.data.energy = 3.0
+    # [scene] sun_rotation: XYZ Euler degrees, as Blender's Rotation field shows them.
+    sun.rotation_euler = [math.radians(float(a)) for a in level.scene.get("sun_rotation", (40.0, 15.0, 30.0))]
+    sun.location = Vector((3.0, -3.0, 5.0)) * s
+    scene.collection.objects.link(sun)
+
+    scene[STATE_KEY] = {"id": level.id, "done": [0] * len(level.tasks), "mesh_object": obj.name,
+                        "start_mesh": filename, "start_matrix": [v for row in obj.matrix_world for v in row],
+                        "scene_scale": s, "snapshots": "{}"}
+    return scene, obj
+
+
+def _place_probe(scene, level):
+    from .. import probe
+    ray = probe.ensure_probe_object(scene)
+    s = level.scene_scale
+    if isinstance(level.probe, dict) and "location" in level.probe:
+        ray.matrix_world = _look_at(Vector(level.probe["location"]) * s,
+                                    Vector(level.probe.get("target", (0.0, 0.0, 0.0))) * s)
+    ray.empty_display_size = 0.5 * s
+    return ray
+
+
+def _frame_views(window, level):
+    """Point the window's 3D views at the level's mesh, from the camera's side."""
+    s = level.scene_scale
+    for area in window.screen.areas:
+        if area.type != 'VIEW_3D':
+            continue
+        space = area.spaces.active
+        space.clip_start, space.clip_end = 0.1 * s, 100.0 * s
+        view = space.region_3d
+        view.view_perspective = 'PERSP'
+        view.view_location = (0.0, 0.0, 0.0)
+        view.view_distance = 6.0 * s
+        location = Vector(level.camera.get("location", (4.5, -6.0, 3.0)))
+        view.view_rotation = (-location).to_track_quat('-Z', 'Y')
+        area.tag_redraw()
+
+
+def _remove_scene(scene):
+    for obj in list(scene.objects):
+        if len(obj.users_scene) == 1:
+            bpy.data.objects.remove(obj)
+    bpy.data.scenes.remove(scene)
+
+
+def _drop_name_suffixes(scene):
+    """The new scene was built while the previous level's objects still held the plain names."""
+    for obj in scene.objects:
+        base = re.sub(r"\.\d{3}$", "", obj.name)
+        if base != obj.name and base not in bpy.data.objects:
+            was = obj.name
+            obj.name = base
+            if scene[STATE_KEY]["mesh_object"] == was:
+                scene[STATE_KEY]["mesh_object"] = base
+
+
+def open_level(context, level_id, root=None):
+    """Builds the level's scene from scratch and makes it the window's scene; the previous level's
+    scene is removed (the user's own scenes are kept). Returns the new scene. Raises LevelError."""
+    level = find_level(level_id, root)
+    _check_settings(level)
+    scene, _ = _new_scene(level)
+    try:
+        _apply_settings(scene, level)
+        if "raylab" in level.settings and scene.raylab.probe_enabled:
+            _place_probe(scene, level)
+    except Exception:
+        _remove_scene(scene)
+        raise
+    windows = list(context.window_manager.windows)
+    old = {w.scene for w in windows} if windows else {context.scene}
+    for window in windows:
+        window.scene = scene
+        _frame_views(window, level)
+    for previous in old:
+        if previous != scene and state(previous) is not None:
+            _remove_scene(previous)
+    _drop_name_suffixes(scene)
+    _take_snapshots(scene, level, 0)
+    check_tasks(scene)
+    return scene
+
+
+def step_level(context, delta):
+    """Opens the next (delta=1) or previous (delta=-1) level; from a non-level scene, the first one."""
+    levels, _ = available_levels()
+    if not levels:
+        raise LevelError("no levels")
+    st = state(context.scene)
+    ids = [level.id for level in levels]
+    index = ids.index(st["id"]) + delta if st and st["id"] in ids else 0
+    if not 0 <= index < len(ids):
+        raise LevelError("this is the " + ("last" if delta > 0 else "first") + " level")
+    return open_level(context, ids[index])
+
+
+def swap_mesh(scene, source):
+    """Replaces the level mesh's geometry with a shipped mesh ("file:bunny.obj") or a copy of a mesh
+    object's ("object:Suzanne"); the object, its place and every setting stay."""
+    obj = level_mesh_object(scene)
+    if obj is None:
+        raise LevelError("the scene is not a level (open one first)")
+    kind, _, name = source.partition(":")
+    if kind == "file":
+        arrays, credit = shipped_mesh_arrays(name), mesh_credit(name)
+    elif kind == "object" and name in bpy.data.objects and bpy.data.objects[name].type == 'MESH':
+        arrays, credit = object_mesh_arrays(bpy.data.objects[name]), f"{name}: your own mesh"
+    else:
+        raise LevelError(f"cannot swap in {source!r}: expected file:<shipped .obj> or object:<mesh object>")
+    _set_mesh(obj, *arrays, MESH_SIZE * state(scene)["scene_scale"], source.partition(":")[2], credit)
+    check_tasks(scene)
