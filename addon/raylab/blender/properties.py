@@ -1,4 +1,5 @@
-"""scene.raylab: what the viewport overlays and the ray probe show.
+"""The add-on's settings, one property group per scene attribute: scene.raylab (what the viewport
+overlays and the ray probe show) and scene.raylab_render (the render engine and the comparison).
 
 The probe's status fields are read-only: their getters return the probe's last evaluation (and
 evaluate it first when the probe, the objects or the settings changed since), so a level's task
@@ -122,16 +123,44 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     probe_nodes_visited: IntProperty(name="Nodes visited", get=_probe_field("nodes_visited"))
 
 
-CLASSES = (RAYLAB_PG_scene,)
+class RAYLAB_PG_render(bpy.types.PropertyGroup):
+    """scene.raylab_render: the raylab render engine and the structure comparison."""
+
+    structure: EnumProperty(name="Structure", items=structure_items(), default=api.DEFAULTS["structure"],
+                            description="Acceleration structure built for every mesh")
+    max_depth: IntProperty(name="Octree Depth", default=api.DEFAULTS["max_depth"], min=0,
+                           max=api.DEFAULTS["max_depth_limit"], soft_max=12,
+                           description="Maximum octree depth (0 = the root box only)")
+    leaf_size: IntProperty(name="Leaf Size", default=api.DEFAULTS["leaf_size"], min=1, max=256,
+                           description="Triangles a node may hold before it is split (octree and BVH)")
+    super_sampling: IntProperty(name="Super Sampling", default=1, min=1, max=4,
+                                description="N x N camera rays per pixel")
+    max_recursion: IntProperty(name="Max Recursion", default=3, min=0, max=16,
+                               description="Reflection and refraction bounces")
+    shadows: BoolProperty(name="Shadows", default=True, description="Trace shadow rays to the lights")
+    robust_offset: BoolProperty(
+        name="Robust Offset", default=True,
+        description="Start secondary rays from an offset in integer ulps along the normal; "
+                    "off uses a fixed epsilon of 1e-4 (shows shadow acne at large scales)")
+    shadow_terminator: BoolProperty(
+        name="Shadow Terminator", default=True,
+        description="Smooth-shaded surfaces: shadow rays start from the curved surface the normals imply "
+                    "(Hanika 2021), so the light's edge follows the smooth shading, not the facets")
+    tile_size: IntProperty(name="Tile Size", default=32, min=8, max=512,
+                           description="Pixels per side of a render tile")
+
+
+# Scene attribute -> its property group.
+GROUPS = {"raylab": RAYLAB_PG_scene, "raylab_render": RAYLAB_PG_render}
 
 
 def register():
-    for cls in CLASSES:
+    for attribute, cls in GROUPS.items():
         bpy.utils.register_class(cls)
-    bpy.types.Scene.raylab = PointerProperty(type=RAYLAB_PG_scene)
+        setattr(bpy.types.Scene, attribute, PointerProperty(type=cls))
 
 
 def unregister():
-    del bpy.types.Scene.raylab
-    for cls in reversed(CLASSES):
+    for attribute, cls in reversed(GROUPS.items()):
+        delattr(bpy.types.Scene, attribute)
         bpy.utils.unregister_class(cls)
