@@ -21,7 +21,7 @@ __all__ = [
     "Structure", "Scene", "Hits", "Occlusion", "RayStory", "render", "write_image",
 ]
 
-STRUCTURES = ("none", "aabb", "octree", "bvh")
+STRUCTURES = ("none", "aabb", "octree", "grid", "bvh")
 TRIANGLE_TESTS = ("watertight", "moller_trumbore")
 BuildError = _raylab.BuildError
 
@@ -83,7 +83,7 @@ class Structure:
     def __init__(self, native):
         self.native = native  # the _raylab.Structure; other native parts (the renderer) take it
 
-    structure = property(lambda self: self.native.structure, doc="none, aabb, octree or bvh")
+    structure = property(lambda self: self.native.structure, doc="none, aabb, octree, grid or bvh")
     build_seconds = property(lambda self: self.native.build_seconds)
     memory_bytes = property(lambda self: self.native.memory_bytes, doc="the structure's own bytes, without the mesh")
     triangle_count = property(lambda self: self.native.triangle_count)

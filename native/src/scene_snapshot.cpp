@@ -71,7 +71,8 @@ SceneSnapshot::SceneSnapshot(const BuildSettings& settings, std::vector<SceneMes
 // (brute force tests every triangle of every object; the AABB ignores the ray or not). A top level
 // over the instances would be acceleration those two do not have.
 bool SceneSnapshot::uses_top_level() const {
-  return settings_.kind == StructureKind::Octree || settings_.kind == StructureKind::Bvh;
+  return settings_.kind == StructureKind::Octree || settings_.kind == StructureKind::Bvh ||
+         settings_.kind == StructureKind::Grid;
 }
 
 // One traversal of the top level for both queries. `visit(instance, tmax)` queries one instance

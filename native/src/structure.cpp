@@ -4,6 +4,7 @@
 #include "raylab/batch.h"
 #include "raylab/brute_force.h"
 #include "raylab/bvh.h"
+#include "raylab/grid.h"
 #include "raylab/octree.h"
 
 
@@ -16,7 +17,8 @@ StructureKind structure_kind_from_name(const std::string& name) {
   if (name == "aabb") return StructureKind::Aabb;
   if (name == "octree") return StructureKind::Octree;
   if (name == "bvh") return StructureKind::Bvh;
-  throw std::invalid_argument("unknown structure '" + name + "': expected none, aabb, octree or bvh");
+  if (name == "grid") return StructureKind::Grid;
+  throw std::invalid_argument("unknown structure '" + name + "': expected none, aabb, octree, bvh or grid");
 }
 
 const char* structure_kind_name(StructureKind kind) {
@@ -25,6 +27,7 @@ const char* structure_kind_name(StructureKind kind) {
     case StructureKind::Aabb: return "aabb";
     case StructureKind::Octree: return "octree";
     case StructureKind::Bvh: return "bvh";
+    case StructureKind::Grid: return "grid";
   }
   return "?";
 }
@@ -57,6 +60,7 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
     case StructureKind::Aabb: s = std::make_unique<AabbStructure>(mesh, settings); break;
     case StructureKind::Octree: s = build_octree(mesh, settings); break;
     case StructureKind::Bvh: s = build_bvh(mesh, settings); break;
+    case StructureKind::Grid: s = build_grid(mesh, settings); break;
   }
   s->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;

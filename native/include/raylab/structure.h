@@ -14,7 +14,7 @@
 
 namespace raylab {
 
-enum class StructureKind { None, Aabb, Octree, Bvh };
+enum class StructureKind { None, Aabb, Octree, Bvh, Grid };
 
 StructureKind structure_kind_from_name(const std::string& name);  // throws std::invalid_argument
 const char* structure_kind_name(StructureKind kind);
