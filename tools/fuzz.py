@@ -9,7 +9,7 @@ of random triangles at a random scale and offset, a flattened sphere, a grid of 
 triangles, a shipped mesh under a random affine map) with random settings, traces rays of hostile kinds
 (near-surface origins, rays at vertices and edges, axis-parallel and denormal directions, tmax just past
 the hit), and checks the contract (README, "Exactness and its limits"): with the watertight test aabb,
-octree and bvh return brute force's closest hit and any-hit answer; with either test no hit has a t
+octree, grid and bvh return brute force's closest hit and any-hit answer; with either test no hit has a t
 outside (tmin, tmax] or a non-finite t. Mutated OBJ files must load as a valid
 mesh or raise ValueError/OSError. A crash ends the process, which is a failure too. Every finding is
 printed with the seed and round that reproduce it, and the rounds' counts go to out/fuzz/summary.json.
@@ -29,7 +29,7 @@ sys.path.insert(0, os.environ.get("RAYLAB_ADDON_DIR", os.path.join(ROOT, "addon"
 import raylab  # noqa: E402
 
 MESH_DIR = os.path.join(ROOT, "addon", "raylab", "meshes")
-ACCELERATED = ("aabb", "octree", "bvh")
+ACCELERATED = tuple(s for s in raylab.STRUCTURES if s != "none")  # every structure the API offers
 TINY_COMPONENTS = (0.0, -0.0, 1e-45, -1e-45, 1e-39, -1e-39, 1e-30, -1e-30)
 
 

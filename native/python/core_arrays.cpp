@@ -120,7 +120,7 @@ const char* triangle_test_name(TriangleTest test) {
 BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
                                       py::handle triangle_test_name, py::handle memory_budget) {
   BuildSettings s;
-  s.kind = structure_kind_from_name(str_parameter(structure, "structure", "none, aabb, octree or bvh"));
+  s.kind = structure_kind_from_name(str_parameter(structure, "structure", "none, aabb, octree, grid or bvh"));
   s.max_depth = int32_parameter(max_depth, "max_depth");
   s.leaf_size = int32_parameter(leaf_size, "leaf_size");
   const std::string triangle_test =

@@ -16,8 +16,8 @@ from conftest import ADDON, MESH_DIR, load
 STRUCTURES = raylab.STRUCTURES
 
 
-def test_structures_are_the_agreed_four():
-    assert STRUCTURES == ("none", "aabb", "octree", "bvh")
+def test_structures_are_the_agreed_five():
+    assert STRUCTURES == ("none", "aabb", "octree", "grid", "bvh")
     assert issubclass(raylab.BuildError, RuntimeError)
 
 
@@ -51,7 +51,7 @@ def test_structure_properties(sphere, structure):
     assert (s.triangle_count, s.vertex_count) == (1280, 642)
     assert s.build_seconds >= 0.0
     assert isinstance(s.memory_bytes, int)
-    if structure in ("octree", "bvh"):
+    if structure in ("octree", "grid", "bvh"):
         assert s.memory_bytes > 0
     assert (s.max_depth, s.leaf_size, s.triangle_test) == (4, 3, "watertight")
 
@@ -278,7 +278,7 @@ def test_the_memory_estimate_refuses_only_what_the_build_would_refuse():
         raylab.build(*bunny, structure="octree", max_depth=11, leaf_size=1, memory_budget=120 << 20)
 
 
-@pytest.mark.parametrize("structure", ["octree", "bvh"])
+@pytest.mark.parametrize("structure", ["octree", "grid", "bvh"])
 def test_a_small_memory_budget_raises_build_error(structure):
     with pytest.raises(raylab.BuildError):
         raylab.build(*load("bunny"), structure=structure, memory_budget=1024)
@@ -332,8 +332,8 @@ def test_counters_count_rays_ignored_and_tests(structure, query):
         assert 0 < stats["triangle_tests"] <= (2000 - missing) * len(triangles)
     if structure == "aabb" and query == "intersect":
         assert stats["triangle_tests"] == (2000 - missing) * len(triangles)
-    if structure in ("octree", "bvh"):
-        # The point of a hierarchy: far fewer triangle tests than the box alone.
+    if structure in ("octree", "grid", "bvh"):
+        # The point of a hierarchy (or of a grid): far fewer triangle tests than the box alone.
         assert stats["triangle_tests"] < 0.1 * (2000 - missing) * len(triangles)
 
 
@@ -359,7 +359,7 @@ def test_story_of_a_hit_tells_what_the_counters_count(sphere, structure):
     assert set(st.nodes) <= set(boxes["node"][entered]), "a node was visited without its box being hit"
 
 
-@pytest.mark.parametrize("structure", ["aabb", "octree", "bvh"])
+@pytest.mark.parametrize("structure", ["aabb", "octree", "grid", "bvh"])
 def test_story_of_a_ray_missing_the_object_says_where_it_failed(sphere, structure):
     s = raylab.build(*sphere, structure=structure, max_depth=3, leaf_size=4)
     away = s.story([0, 0, -5], [0, 0, -1])

@@ -10,7 +10,7 @@ import pytest
 import raylab
 from conftest import load
 
-STRUCTURES = ("none", "aabb", "octree", "bvh")
+STRUCTURES = ("none", "aabb", "octree", "grid", "bvh")
 
 
 def quad(z=0.0, scale=1.0):

@@ -210,8 +210,9 @@ class Grid final : public StructureBase<Grid> {
         if (l.first > l.last && l.t_enter == kInfinity) return;  // this axis has left the grid for good
         continue;
       }
-      // The next cell's padded entry lies beyond the search (or no cell is left to enter).
-      if (!(j.t_enter <= limit())) return;
+      // No cell is left to enter, or the next one's padded entry lies beyond the search. (A cell
+      // entered at an infinite distance, by overflow, cannot hold a hit: none has an infinite t.)
+      if (j.t_enter == kInfinity || j.t_enter > limit()) return;
       ++j.last;
       j.t_enter = j.last + 1 < j.count ? slab_enter(box_ray, j, j.last + 1) : kInfinity;
       if (visit_cells(windows, join, box_ray, record, limit, visit_cell)) return;
