@@ -121,7 +121,7 @@ bool Grid::build(const glm::ivec3& resolution) {
   });
   const uint64_t total = references.load();
   if (total > 0xffffffffu || bytes_needed(cells, total) > settings_.memory_budget) {
-    offsets_ = {};
+    std::vector<uint32_t>().swap(offsets_);  // give the memory back: the next try is within the budget
     return false;
   }
   std::exclusive_scan(offsets_.begin(), offsets_.end(), offsets_.begin(), 0u);
