@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <numeric>
 
@@ -38,8 +39,10 @@ std::string bytes_text(size_t bytes) { return std::to_string(bytes) + " bytes"; 
 
 }  // namespace
 
-// The grid's memory: one offset per cell and one more, one index per triangle reference.
-size_t Grid::bytes_needed(size_t cells, size_t references) { return (cells + 1 + references) * sizeof(uint32_t); }
+// The grid's memory: one offset per cell and one more, one index per triangle reference, a bit per cell.
+size_t Grid::bytes_needed(size_t cells, size_t references) {
+  return (cells + 1 + references) * sizeof(uint32_t) + (cells + 63) / 64 * sizeof(uint64_t);
+}
 
 Grid::Grid(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std::move(mesh), settings) {
   // settings.max_depth and settings.leaf_size are the octree's and the BVH's: a grid's only
@@ -81,18 +84,38 @@ glm::ivec2 Grid::cell_span(int axis, float lo, float hi) const {
 }
 
 // Calls f(cell) for every cell triangle `t` overlaps, by the separating-axis test on the cells its
-// bounds reach. A triangle whose bounds reach a single cell lies in it: the cells tile the bounds.
+// bounds reach, in blocks of 2 x 2 x 2 cells that share most of the test's work (the box face normals
+// are decided by the span itself). A triangle whose bounds reach a single cell lies in it: the cells
+// tile the bounds.
 template <class F>
 void Grid::for_each_overlapped_cell(uint32_t t, F f) const {
   const glm::vec3 a = mesh_->vertex(t, 0), b = mesh_->vertex(t, 1), c = mesh_->vertex(t, 2);
   const glm::vec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
   glm::ivec2 span[3];
   for (int axis = 0; axis < 3; ++axis) span[axis] = cell_span(axis, lo[axis], hi[axis]);
-  const bool single = span[0].x == span[0].y && span[1].x == span[1].y && span[2].x == span[2].y;
-  for (int z = span[2].x; z <= span[2].y; ++z)
-    for (int y = span[1].x; y <= span[1].y; ++y)
-      for (int x = span[0].x; x <= span[0].y; ++x)
-        if (single || triangle_box_overlap(cell_bounds({x, y, z}), a, b, c)) f(cell_index({x, y, z}));
+  if (span[0].x == span[0].y && span[1].x == span[1].y && span[2].x == span[2].y) {
+    f(cell_index({span[0].x, span[1].x, span[2].x}));
+    return;
+  }
+  for (int z = span[2].x; z <= span[2].y; z += 2)
+    for (int y = span[1].x; y <= span[1].y; y += 2)
+      for (int x = span[0].x; x <= span[0].y; x += 2) {
+        const glm::ivec3 base(x, y, z);
+        glm::dvec3 planes[3];
+        uint32_t cells = 0xff;
+        for (int axis = 0; axis < 3; ++axis) {
+          const int i = base[axis];
+          const bool two = i + 1 <= span[axis].y;  // the block's upper half along `axis` is in the span
+          planes[0][axis] = plane(axis, i);
+          planes[1][axis] = plane(axis, i + 1);
+          planes[2][axis] = plane(axis, two ? i + 2 : i + 1);
+          if (!two) cells &= ~(axis == 0 ? 0xaau : axis == 1 ? 0xccu : 0xf0u);
+        }
+        for (uint32_t m = detail::triangle_grid_overlaps(planes, a, b, c, cells); m != 0; m &= m - 1) {
+          const int i = std::countr_zero(m);
+          f(cell_index(base + glm::ivec3(i & 1, (i >> 1) & 1, (i >> 2) & 1)));
+        }
+      }
 }
 
 // Counting sort in parallel: count each cell's references, place the cells' runs by a running sum,
@@ -111,12 +134,13 @@ bool Grid::build(const glm::ivec3& resolution) {
       for (uint32_t t = range.begin(); t != range.end(); ++t) body(t);
     });
   };
-  for_triangles([&](uint32_t t) {
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 256), [&](const tbb::blocked_range<uint32_t>& range) {
     uint64_t count = 0;
-    for_each_overlapped_cell(t, [&](uint32_t cell) {
-      std::atomic_ref<uint32_t>(offsets_[cell]).fetch_add(1, std::memory_order_relaxed);
-      ++count;
-    });
+    for (uint32_t t = range.begin(); t != range.end(); ++t)
+      for_each_overlapped_cell(t, [&](uint32_t cell) {
+        std::atomic_ref<uint32_t>(offsets_[cell]).fetch_add(1, std::memory_order_relaxed);
+        ++count;
+      });
     references.fetch_add(count, std::memory_order_relaxed);
   });
   const uint64_t total = references.load();
@@ -134,9 +158,13 @@ bool Grid::build(const glm::ivec3& resolution) {
   // Each offset now holds its cell's end, the next cell's start.
   std::copy_backward(offsets_.begin(), offsets_.end() - 1, offsets_.end());
   offsets_[0] = 0;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, cells, 4096), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t cell = range.begin(); cell != range.end(); ++cell)
+  occupied_.assign((cells + 63) / 64, 0u);
+  // Blocks of whole 64-cell words, so that no two tasks write the same word.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, occupied_.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t cell = range.begin() * 64; cell != std::min(cells, range.end() * 64); ++cell) {
       std::sort(triangles_.begin() + offsets_[cell], triangles_.begin() + offsets_[cell + 1]);
+      if (offsets_[cell] != offsets_[cell + 1]) occupied_[cell >> 6] |= uint64_t(1) << (cell & 63);
+    }
   });
   return true;
 }
@@ -155,7 +183,7 @@ std::vector<BoxInfo> Grid::boxes() const {
 }
 
 size_t Grid::memory_bytes() const {
-  return offsets_.capacity() * sizeof(uint32_t) + triangles_.capacity() * sizeof(uint32_t);
+  return (offsets_.capacity() + triangles_.capacity()) * sizeof(uint32_t) + occupied_.capacity() * sizeof(uint64_t);
 }
 
 std::unique_ptr<Structure> build_grid(MeshPtr mesh, const BuildSettings& settings) {

@@ -176,7 +176,9 @@ TEST(GridBuild, BoxesAreTheBoundsAndTheNonEmptyCells) {
     counted += boxes[i].triangle_count;
   }
   EXPECT_EQ(counted, references);
-  EXPECT_EQ(s->memory_bytes(), (g.cell_count() + 1 + references) * sizeof(uint32_t));
+  EXPECT_EQ(s->memory_bytes(), (g.cell_count() + 1 + references) * sizeof(uint32_t) + (g.cell_count() + 63) / 64 * 8);
+  for (uint32_t cell = 0; cell < g.cell_count(); ++cell)
+    EXPECT_EQ(g.occupied(cell), !g.cell_triangles(cell).empty()) << cell;
 }
 
 TEST(GridBuild, IsTheSameOnOneThreadAsOnAllAndIgnoresDepthAndLeafSize) {

@@ -59,7 +59,7 @@ class Grid final : public StructureBase<Grid> {
   // The grid's bounds (depth 0, all triangles), then every non-empty cell in cell order (depth 1, a
   // leaf, its own triangles). Box ids in stories are 0 for the bounds and 1 + cell_index(cell).
   std::vector<BoxInfo> boxes() const override;
-  // The offsets and the triangle-index array.
+  // The offsets, the triangle-index array and the occupancy bits.
   size_t memory_bytes() const override;
 
   const Bounds& bounds() const { return bounds_; }
@@ -78,6 +78,7 @@ class Grid final : public StructureBase<Grid> {
   Bounds cell_bounds(const glm::ivec3& c) const {
     return Bounds({plane(0, c.x), plane(1, c.y), plane(2, c.z)}, {plane(0, c.x + 1), plane(1, c.y + 1), plane(2, c.z + 1)});
   }
+  bool occupied(uint32_t cell) const { return (occupied_[cell >> 6] >> (cell & 63u)) & 1u; }
   // The triangles of a cell, in ascending index order.
   std::span<const uint32_t> cell_triangles(uint32_t cell) const {
     return {triangles_.data() + offsets_[cell], offsets_[cell + 1] - offsets_[cell]};
@@ -159,7 +160,7 @@ class Grid final : public StructureBase<Grid> {
         for (int kx = from[0]; kx <= to[0]; ++kx) {
           const glm::ivec3 c(windows[0].cell(kx), windows[1].cell(ky), windows[2].cell(kz));
           const uint32_t cell = cell_index(c);
-          if (offsets_[cell] == offsets_[cell + 1]) continue;  // empty: nothing to test, no box test
+          if (!occupied(cell)) continue;  // empty: nothing to test, no box test
           const Bounds box = cell_bounds(c);
           float t = box_ray.tmin;
           const bool hit = intersect_box(box, box_ray, limit(), t);
@@ -233,6 +234,10 @@ class Grid final : public StructureBase<Grid> {
   glm::vec3 cell_size_{0.0f};
   std::vector<uint32_t> offsets_;    // per cell (x fastest, then y, then z) and one more: CSR offsets
   std::vector<uint32_t> triangles_;  // the cells' runs, one after another
+  // Bit per cell: non-empty. The walk reads it for every cell it passes and the offsets only for the
+  // non-empty ones: 1/32 of the offsets' size, it stays in cache where the offsets miss (the offsets
+  // check took 58% of the walk's time on dragon.obj, random rays).
+  std::vector<uint64_t> occupied_;
 };
 
 std::unique_ptr<Structure> build_grid(MeshPtr mesh, const BuildSettings& settings);
