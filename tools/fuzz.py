@@ -193,7 +193,7 @@ def trace_round(rng, round_, findings, counts):
     except raylab.BuildError:
         counts["refused_builds"] += 1
         return
-    counts["builds"] += 4
+    counts["builds"] += len(structures)
     origins, directions, kinds = rays(vertices32.astype(np.float64), triangles, rng, 1800)
     origins, directions = origins.astype(np.float32), directions.astype(np.float32)
     finite = np.isfinite(origins).all(axis=1) & np.isfinite(directions).all(axis=1) & (np.abs(directions).max(axis=1) > 0)
@@ -201,7 +201,7 @@ def trace_round(rng, round_, findings, counts):
     tmin = float(rng.choice([0.0, 0.0, 1e-6, 1e-3]))
     reference = structures["none"].intersect(origins, directions, tmin=tmin)
     reference_any = structures["none"].occluded(origins, directions, tmin=tmin)
-    counts["rays"] += len(origins) * 4
+    counts["rays"] += len(origins) * len(structures)
     for name, structure in structures.items():
         hits = structure.intersect(origins, directions, tmin=tmin)
         bad = check_hits(hits, tmin, math.inf)

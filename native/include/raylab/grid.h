@@ -4,6 +4,9 @@
 // padded cells front to back and stops once the closest hit lies before the next cell's entry.
 // The resolution follows pbrt-v1: about 3 * cbrt(N) cells along the longest axis, the other axes in
 // proportion, each at least 1; max_depth and leaf_size do not apply. Built in src/grid.cpp.
+// Measured (CPU time, one core, bunny 6.6k and dragon 100k triangles): 1, 1.5, 2, 3 and 4 * cbrt(N)
+// trace within the shared machine's noise (+-30%) of each other; 3 costs 1.5x the build time of 2 and
+// 2.3x its memory (dragon: 4.9 MB, 139 x 98 x 62 cells). pbrt's 3 is kept; 2 would be the cheaper pick.
 #pragma once
 
 #include "raylab/box_intersection.h"
