@@ -24,7 +24,7 @@ STATUS_COLORS = {
     "missed_triangles": (1.00, 0.90, 0.10, 1.0),
     "hit_object": (0.20, 0.85, 1.00, 1.0),
 }
-ROOT_NAMES = {"aabb": "the AABB", "octree": "the octree root", "bvh": "the BVH root"}
+ROOT_NAMES = {"aabb": "the AABB", "octree": "the octree root", "grid": "the grid's bounds", "bvh": "the BVH root"}
 VISITED_COLOR = (1.0, 1.0, 0.55, 1.0)
 MISSED_BOX_COLOR = (1.0, 0.3, 0.25, 0.55)
 ENTRY_COLOR = (1.0, 1.0, 1.0, 1.0)

@@ -11,6 +11,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatVectorProperty, FloatPro
 STRUCTURE_ITEMS = [
     ("aabb", "AABB", "The object's axis-aligned bounding box, re-computed in world space as the object moves"),
     ("octree", "Octree", "The octree: a cube split into octants down to the maximum depth"),
+    ("grid", "Grid", "The uniform grid: its non-empty cells (the resolution follows the triangle count)"),
     ("bvh", "BVH", "The bounding volume hierarchy (binned SAH)"),
 ]
 

@@ -6,6 +6,7 @@ STRUCTURE_ITEMS = [
     ("none", "None", "Every ray tests every triangle"),
     ("aabb", "AABB", "One bounding box per object; rays that miss it are ignored"),
     ("octree", "Octree", "Octree per mesh (maximum depth, leaf size)"),
+    ("grid", "Grid", "Uniform grid per mesh (about 3 * cbrt(triangles) cells along the longest axis)"),
     ("bvh", "BVH", "Bounding volume hierarchy per mesh (binned SAH)"),
 ]
 
