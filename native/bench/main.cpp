@@ -36,7 +36,7 @@ struct Options {
   int reps = 5, build_reps = 3;
   double rep_seconds = 0.15;  // each timed repetition traces about this long (at most all rays)
   std::vector<int> threads{1, 2};
-  std::vector<std::string> structures{"none", "aabb", "octree", "bvh"};
+  std::vector<std::string> structures{"none", "aabb", "octree", "grid", "bvh"};
   std::vector<std::string> embree_qualities{"medium", "high"};
   int max_depth = 6, leaf_size = 8;
 };
@@ -45,7 +45,7 @@ struct Options {
   std::cerr << "raylab_bench: " << problem << "\n"
             << "usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS --name NAME --out DIR\n"
                "  [--camera WxH] [--random-rays N] [--export-rays N] [--reps N] [--build-reps N]\n"
-               "  [--rep-seconds S] [--threads 1,2] [--structures none,aabb,octree,bvh]\n"
+               "  [--rep-seconds S] [--threads 1,2] [--structures none,aabb,octree,grid,bvh]\n"
                "  [--embree medium,high] [--max-depth D] [--leaf-size L]\n";
   std::exit(2);
 }
