@@ -5,8 +5,8 @@
 // The resolution follows pbrt-v1: about 3 * cbrt(N) cells along the longest axis, the other axes in
 // proportion, each at least 1; max_depth and leaf_size do not apply. Built in src/grid.cpp.
 // Measured (CPU time, one core, bunny 6.6k and dragon 100k triangles): 1, 1.5, 2, 3 and 4 * cbrt(N)
-// trace within the shared machine's noise (+-30%) of each other; 3 costs 1.5x the build time of 2 and
-// 2.3x its memory (dragon: 4.9 MB, 139 x 98 x 62 cells). pbrt's 3 is kept; 2 would be the cheaper pick.
+// swapped ranks from run to run on the shared machine (+-40%), none clearly fastest, while memory grows
+// as the cube (dragon: 1.3, 2.1, 4.9, 10.2 MB for 1.5 to 4). pbrt's 3 is kept; 1.5 to 2 are cheaper.
 #pragma once
 
 #include "raylab/box_intersection.h"
