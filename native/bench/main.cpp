@@ -32,6 +32,13 @@
 namespace raylab::bench {
 namespace {
 
+// Every structure the core has, in its table's order.
+std::vector<std::string> every_structure() {
+  std::vector<std::string> names;
+  for (const raylab::StructureInfo& kind : raylab::structure_kinds()) names.push_back(kind.name);
+  return names;
+}
+
 struct Options {
   std::string mesh, name, out_dir = ".";
   int camera_width = 512, camera_height = 384;
@@ -40,9 +47,9 @@ struct Options {
   int reps = 5, build_reps = 3;
   double rep_seconds = 0.15;  // each timed repetition traces about this long (at most all rays)
   std::vector<int> threads{1, 2};
-  std::vector<std::string> structures{"none", "aabb", "octree", "bvh"};
+  std::vector<std::string> structures = every_structure();
   std::vector<std::string> embree_qualities{"medium", "high"};
-  int max_depth = 6, leaf_size = 8;
+  int max_depth = raylab::BuildSettings{}.max_depth, leaf_size = raylab::BuildSettings{}.leaf_size;
 };
 
 // Embree's build qualities by the names --embree takes.

@@ -4,6 +4,7 @@
 #include "raylab/batch.h"
 #include "raylab/brute_force.h"
 #include "raylab/bvh.h"
+#include "raylab/grid.h"
 #include "raylab/octree.h"
 
 #include <chrono>
@@ -30,6 +31,10 @@ constexpr StructureInfo kStructures[] = {
      "the octree root", true, true, true, true, &build_octree},
     {StructureKind::Bvh, "bvh", "BVH", "A bounding volume hierarchy built with the binned surface area heuristic",
      "the BVH root", false, true, true, true, &build_bvh},
+    {StructureKind::Grid, "grid", "Uniform grid",
+     "Equal cells over the mesh's box, about 3 times the cube root of the triangle count along the longest "
+     "side, walked front to back (3D-DDA)",
+     "the grid's box", false, false, true, true, &build_grid},
 };
 
 }  // namespace

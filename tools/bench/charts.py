@@ -20,7 +20,7 @@ def legend_below(fig, ax, columns):
 
 def chart_throughput(results, path):
     meshes = list(results["meshes"])
-    names = ["none", "aabb", "octree", "bvh", "embree_medium", "embree_high"]
+    names = list(raylab.STRUCTURES) + ["embree_medium", "embree_high"]
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.2))
     for ax, ray_set in zip(axes, ("camera", "random")):
         width = 0.8 / (len(names) + 1)

@@ -14,7 +14,7 @@
 
 namespace raylab {
 
-enum class StructureKind { None, Aabb, Octree, Bvh };
+enum class StructureKind { None, Aabb, Octree, Bvh, Grid };
 
 struct BuildSettings {
   // The deepest octree the traversal's stack is sized for.
