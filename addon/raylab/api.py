@@ -1,7 +1,7 @@
 """The Python API of raylab: numpy in, numpy out; the native core does the work with the GIL released.
 
     V, T = raylab.load_mesh(path)                    # (V,3) float32, (T,3) uint32
-    s = raylab.build(V, T, structure="bvh")          # "none" | "aabb" | "octree" | "bvh"
+    s = raylab.build(V, T, structure="bvh")          # one of raylab.STRUCTURES
     h = s.intersect(origins, directions)             # closest hits of N rays
     o = s.occluded(origins, directions)              # any hit (shadow rays)
     st = s.story(origin, direction)                  # everything one ray did
