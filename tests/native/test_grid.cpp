@@ -3,6 +3,8 @@
 #include "raylab/structure.h"
 #include "raylab/triangle_box_overlap.h"
 
+#include "support.h"
+
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
@@ -11,19 +13,9 @@
 #include <random>
 
 using namespace raylab;
+using namespace raylab::test;  // support.h
 
 namespace {
-
-MeshPtr mesh_of(std::vector<glm::vec3> vertices, std::vector<glm::uvec3> triangles) {
-  auto mesh = std::make_shared<TriangleMesh>();
-  mesh->vertices = std::move(vertices);
-  mesh->triangles = std::move(triangles);
-  return mesh;
-}
-
-MeshPtr shipped(const std::string& name) {
-  return std::make_shared<TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/" + name));
-}
 
 std::unique_ptr<Structure> build(const MeshPtr& mesh, StructureKind kind,
                                  size_t memory_budget = BuildSettings{}.memory_budget) {
@@ -34,15 +26,6 @@ std::unique_ptr<Structure> build(const MeshPtr& mesh, StructureKind kind,
 }
 
 const Grid& grid_of(const Structure& s) { return dynamic_cast<const Grid&>(s); }
-
-Ray ray_of(glm::vec3 origin, glm::vec3 direction, float tmin = 0.0f, float tmax = kInfinity) {
-  Ray r;
-  r.origin = origin;
-  r.direction = direction;
-  r.tmin = tmin;
-  r.tmax = tmax;
-  return r;
-}
 
 // Closest hit bit for bit and the any-hit answer of brute force.
 void expect_same(const Structure& reference, const Structure& s, const Ray& ray, const std::string& what) {
@@ -56,43 +39,6 @@ void expect_same(const Structure& reference, const Structure& s, const Ray& ray,
   ASSERT_EQ(expected.t, got.t) << what;
   ASSERT_EQ(expected.u, got.u) << what;
   ASSERT_EQ(expected.v, got.v) << what;
-}
-
-// Origins around and inside the bounds; half the rays aimed exactly at a vertex.
-std::vector<Ray> random_rays(const TriangleMesh& mesh, size_t count, uint32_t seed) {
-  std::mt19937 rng(seed);
-  const Bounds b = mesh.bounds();
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f), signed_unit(-1.0f, 1.0f);
-  std::uniform_int_distribution<uint32_t> vertex(0, uint32_t(mesh.vertices.size() - 1));
-  std::vector<Ray> rays(count);
-  for (size_t i = 0; i < count; ++i) {
-    const glm::vec3 f(unit(rng), unit(rng), unit(rng));
-    rays[i].origin = b.lo - 0.5f * b.extent() + 2.0f * f * b.extent();
-    rays[i].direction = i % 2 ? mesh.vertices[vertex(rng)] - rays[i].origin
-                              : glm::vec3(signed_unit(rng), signed_unit(rng), signed_unit(rng));
-  }
-  return rays;
-}
-
-// Sutherland–Hodgman: the part of the triangle inside the closed box, independent of the
-// separating-axis test the grid uses; non-empty means the triangle overlaps the box.
-bool clipped_overlap(const TriangleMesh& mesh, uint32_t triangle, const Bounds& box, double grow) {
-  std::vector<glm::dvec3> poly = {mesh.vertex(triangle, 0), mesh.vertex(triangle, 1), mesh.vertex(triangle, 2)};
-  for (int axis = 0; axis < 3; ++axis)
-    for (double side : {-1.0, 1.0}) {
-      const double plane = side < 0 ? double(box.lo[axis]) - grow : double(box.hi[axis]) + grow;
-      std::vector<glm::dvec3> out;
-      for (size_t i = 0; i < poly.size(); ++i) {
-        const glm::dvec3& cur = poly[i];
-        const glm::dvec3& prev = poly[(i + poly.size() - 1) % poly.size()];
-        const double dc = side * (cur[axis] - plane), dp = side * (prev[axis] - plane);
-        if ((dc <= 0) != (dp <= 0)) out.push_back(prev + (cur - prev) * (dp / (dp - dc)));
-        if (dc <= 0) out.push_back(cur);
-      }
-      poly = std::move(out);
-      if (poly.empty()) return false;
-    }
-  return true;
 }
 
 glm::ivec3 cell_of_index(const Grid& g, uint32_t cell) {
@@ -139,12 +85,12 @@ TEST(GridBuild, EveryCellHoldsExactlyTheTrianglesThatOverlapIt) {
       for (uint32_t t : held) {
         in_cell[t] = true;
         ++cells_of_triangle[t];
-        EXPECT_TRUE(clipped_overlap(*mesh, t, box, tolerance)) << "cell " << cell << " holds triangle " << t;
+        EXPECT_TRUE(!clip_to_box(*mesh, t, box, tolerance).empty()) << "cell " << cell << " holds triangle " << t;
       }
       for (uint32_t t = 0; t < mesh->triangle_count(); ++t) {
         const Bounds& tb = triangle_bounds[t];
         if (in_cell[t] || glm::any(glm::greaterThan(tb.lo, box.hi)) || glm::any(glm::lessThan(tb.hi, box.lo))) continue;
-        if (clipped_overlap(*mesh, t, box, 0.0))
+        if (!clip_to_box(*mesh, t, box, 0.0).empty())
           ADD_FAILURE() << "cell " << cell << " misses overlapping triangle " << t;
       }
     }

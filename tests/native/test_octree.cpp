@@ -3,6 +3,8 @@
 #include "raylab/structure.h"
 #include "raylab/triangle_box_overlap.h"
 
+#include "support.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,19 +12,9 @@
 #include <random>
 
 using namespace raylab;
+using namespace raylab::test;  // support.h
 
 namespace {
-
-MeshPtr mesh_of(std::vector<glm::vec3> vertices, std::vector<glm::uvec3> triangles) {
-  auto mesh = std::make_shared<TriangleMesh>();
-  mesh->vertices = std::move(vertices);
-  mesh->triangles = std::move(triangles);
-  return mesh;
-}
-
-MeshPtr shipped(const std::string& name) {
-  return std::make_shared<TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/" + name));
-}
 
 std::unique_ptr<Structure> build(const MeshPtr& mesh, StructureKind kind, int max_depth = 6, int leaf_size = 8,
                                  size_t memory_budget = BuildSettings{}.memory_budget) {
@@ -67,23 +59,6 @@ void expect_same_closest(const Structure& reference, const Structure& s, const R
   EXPECT_EQ(expected.v, got.v);
 }
 
-// Random rays around and inside a mesh, half of them aimed exactly at a vertex (the hard case: the
-// hit lies on edges shared by several triangles, often on an octant boundary).
-std::vector<Ray> random_rays(const TriangleMesh& mesh, size_t count, uint32_t seed) {
-  std::mt19937 rng(seed);
-  const Bounds b = mesh.bounds();
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f), signed_unit(-1.0f, 1.0f);
-  std::uniform_int_distribution<uint32_t> vertex(0, uint32_t(mesh.vertices.size() - 1));
-  std::vector<Ray> rays(count);
-  for (size_t i = 0; i < count; ++i) {
-    const glm::vec3 f(unit(rng), unit(rng), unit(rng));
-    rays[i].origin = b.lo - 0.5f * b.extent() + 2.0f * f * b.extent();
-    rays[i].direction = i % 2 ? mesh.vertices[vertex(rng)] - rays[i].origin
-                              : glm::vec3(signed_unit(rng), signed_unit(rng), signed_unit(rng));
-  }
-  return rays;
-}
-
 // Pinhole-camera rays from 2.5 mesh sizes away through a grid covering the mesh.
 std::vector<Ray> camera_rays(const TriangleMesh& mesh, int side) {
   const Bounds b = mesh.bounds();
@@ -102,27 +77,6 @@ std::vector<Ray> camera_rays(const TriangleMesh& mesh, int side) {
       rays.push_back(r);
     }
   return rays;
-}
-
-// Sutherland–Hodgman: the part of the triangle inside the closed box. Independent of the
-// separating-axis test the octree uses; non-empty means the triangle overlaps the box.
-std::vector<glm::dvec3> clip_to_box(const TriangleMesh& mesh, uint32_t triangle, const Bounds& box, double grow) {
-  std::vector<glm::dvec3> poly = {mesh.vertex(triangle, 0), mesh.vertex(triangle, 1), mesh.vertex(triangle, 2)};
-  for (int axis = 0; axis < 3; ++axis)
-    for (double side : {-1.0, 1.0}) {
-      const double plane = side < 0 ? double(box.lo[axis]) - grow : double(box.hi[axis]) + grow;
-      std::vector<glm::dvec3> out;
-      for (size_t i = 0; i < poly.size(); ++i) {
-        const glm::dvec3& cur = poly[i];
-        const glm::dvec3& prev = poly[(i + poly.size() - 1) % poly.size()];
-        const double dc = side * (cur[axis] - plane), dp = side * (prev[axis] - plane);  // <= 0: inside
-        if ((dc <= 0) != (dp <= 0)) out.push_back(prev + (cur - prev) * (dp / (dp - dc)));
-        if (dc <= 0) out.push_back(cur);
-      }
-      poly = std::move(out);
-      if (poly.empty()) return poly;
-    }
-  return poly;
 }
 
 TraversalStats count_closest(const Structure& s, const std::vector<Ray>& rays) {

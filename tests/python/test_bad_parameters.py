@@ -35,7 +35,8 @@ SETTINGS = {
     "leaf_size huge": (dict(leaf_size=10 ** 5000), "leaf_size must be an integer that fits in 32 bits, "
                        "got an integer of 16610 bits"),
     "leaf_size bool": (dict(leaf_size=True), "leaf_size must be an integer that fits in 32 bits, got True"),
-    "structure None": (dict(structure=None), "structure must be a str: none, aabb, octree, grid or bvh, got None"),
+    "structure None": (dict(structure=None), "structure must be a str: " + ", ".join(raylab.STRUCTURES[:-1]) +
+                       f" or {raylab.STRUCTURES[-1]}, got None"),
     "triangle_test number": (dict(triangle_test=1), "triangle_test must be a str: watertight or moller_trumbore, "
                              "got 1"),
     "memory_budget array": (dict(memory_budget=np.zeros(1000)), "memory_budget must be a whole number of bytes "

@@ -36,13 +36,8 @@ class AabbStructure final : public StructureBase<AabbStructure> {
  private:
   template <class Recorder>
   bool enter(const Ray& ray, Recorder& record) const {
-    float t_entry = ray.tmin;
-    const bool hit = !box_.empty() && intersect_box(box_, BoxRay(ray, box_), ray.tmax, t_entry);
-    record.box(0, box_, 0, hit, t_entry);
-    if (!hit) {
-      record.ignored();
-      return false;
-    }
+    float t_entry;
+    if (!enter_root(box_, !box_.empty(), BoxRay(ray, box_), ray.tmax, record, t_entry)) return false;
     record.node(0, 0);
     return true;
   }

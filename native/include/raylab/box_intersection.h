@@ -72,4 +72,15 @@ inline bool intersect_box(const Bounds& box, const BoxRay& r, float tmax, float&
   return true;
 }
 
+// The root test every walk starts with: records it, and records the ray as ignored when it misses.
+template <class Recorder>
+inline bool enter_root(const Bounds& root, bool has_nodes, const BoxRay& r, float tmax, Recorder& record,
+                       float& t_root) {
+  t_root = r.tmin;
+  const bool hit = has_nodes && intersect_box(root, r, tmax, t_root);
+  record.box(0, root, 0, hit, t_root);
+  if (!hit) record.ignored();
+  return hit;
+}
+
 }  // namespace raylab

@@ -105,13 +105,8 @@ class Bvh final : public StructureBase<Bvh> {
 
   template <class Recorder>
   bool enter_root(const BoxRay& box_ray, Recorder& record, Entry* stack, int& size) const {
-    float t_entry = box_ray.tmin;
-    const bool hit = !nodes_.empty() && intersect_box(root_bounds_, box_ray, box_ray.tmax, t_entry);
-    record.box(0, root_bounds_, 0, hit, t_entry);
-    if (!hit) {
-      record.ignored();
-      return false;
-    }
+    float t_entry;
+    if (!raylab::enter_root(root_bounds_, !nodes_.empty(), box_ray, box_ray.tmax, record, t_entry)) return false;
     stack[size++] = {0, 0, t_entry, 0};
     return true;
   }

@@ -31,32 +31,16 @@ class Grid final : public StructureBase<Grid> {
 
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
-    record.ray();
-    const TriangleTester tester(ray, settings_.triangle_test);
-    Hit best = initial_hit(ray);
-    bool found = false;
-    walk(ray, record, [&] { return best.t; }, [&](uint32_t cell) {
-      const uint32_t first = offsets_[cell];
-      found |= closest_in_triangles(*mesh_, tester, offsets_[cell + 1] - first,
-                                    [&](uint32_t i) { return triangles_[first + i]; }, best, record);
-      return false;
+    return closest_over_leaves(*mesh_, settings_.triangle_test, ray, hit, record, [&](auto limit, auto visit) {
+      walk(ray, record, limit, [&](uint32_t cell) { return visit(cell_triangles(cell)); });
     });
-    if (found) hit = best;
-    return found;
   }
 
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
-    record.ray();
-    const TriangleTester tester(ray, settings_.triangle_test);
-    bool occluded = false;
-    walk(ray, record, [&] { return ray.tmax; }, [&](uint32_t cell) {
-      const uint32_t first = offsets_[cell];
-      occluded = any_in_triangles(*mesh_, tester, offsets_[cell + 1] - first,
-                                  [&](uint32_t i) { return triangles_[first + i]; }, ray.tmax, record);
-      return occluded;
+    return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, [&](auto limit, auto visit) {
+      walk(ray, record, limit, [&](uint32_t cell) { return visit(cell_triangles(cell)); });
     });
-    return occluded;
   }
 
   // The grid's bounds (depth 0, all triangles), then every non-empty cell in cell order (depth 1, a
@@ -189,13 +173,8 @@ class Grid final : public StructureBase<Grid> {
   template <class Recorder, class Limit, class VisitCell>
   void walk(const Ray& ray, Recorder& record, Limit limit, VisitCell visit_cell) const {
     const BoxRay box_ray(ray, bounds_);
-    float t_root = ray.tmin;
-    const bool hit_root = !offsets_.empty() && intersect_box(bounds_, box_ray, limit(), t_root);
-    record.box(0, bounds_, 0, hit_root, t_root);
-    if (!hit_root) {
-      record.ignored();
-      return;
-    }
+    float t_root;
+    if (!enter_root(bounds_, !offsets_.empty(), box_ray, limit(), record, t_root)) return;
     // Every cell lies inside the bounds, so no cell is entered within [tmin, limit] before t_root.
     AxisWindow windows[3] = {start_window(box_ray, 0, t_root), start_window(box_ray, 1, t_root),
                              start_window(box_ray, 2, t_root)};

@@ -58,30 +58,16 @@ class Octree final : public StructureBase<Octree> {
 
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
-    record.ray();
-    const TriangleTester tester(ray, settings_.triangle_test);
-    Hit best = initial_hit(ray);
-    bool found = false;
-    walk(ray, record, [&] { return best.t; }, [&](const OctreeNode& leaf) {
-      found |= closest_in_triangles(*mesh_, tester, leaf.triangle_count(),
-                                    [&](uint32_t i) { return triangles_[leaf.first + i]; }, best, record);
-      return false;
+    return closest_over_leaves(*mesh_, settings_.triangle_test, ray, hit, record, [&](auto limit, auto visit) {
+      walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(triangles_of(leaf)); });
     });
-    if (found) hit = best;
-    return found;
   }
 
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
-    record.ray();
-    const TriangleTester tester(ray, settings_.triangle_test);
-    bool occluded = false;
-    walk(ray, record, [&] { return ray.tmax; }, [&](const OctreeNode& leaf) {
-      occluded = any_in_triangles(*mesh_, tester, leaf.triangle_count(),
-                                  [&](uint32_t i) { return triangles_[leaf.first + i]; }, ray.tmax, record);
-      return occluded;
+    return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, [&](auto limit, auto visit) {
+      walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(triangles_of(leaf)); });
     });
-    return occluded;
   }
 
   // Every node in index order (parents before children). A leaf's triangle_count is its own; an
@@ -93,12 +79,13 @@ class Octree final : public StructureBase<Octree> {
   const Bounds& root_bounds() const { return root_; }
   std::span<const OctreeNode> nodes() const { return nodes_; }
   // The triangles of a leaf, in ascending index order.
-  std::span<const uint32_t> leaf_triangles(uint32_t node) const {
-    const OctreeNode& n = nodes_[node];
-    return {triangles_.data() + n.first, n.triangle_count()};
-  }
+  std::span<const uint32_t> leaf_triangles(uint32_t node) const { return triangles_of(nodes_[node]); }
 
  private:
+  std::span<const uint32_t> triangles_of(const OctreeNode& leaf) const {
+    return {triangles_.data() + leaf.first, leaf.triangle_count()};
+  }
+
   struct StackEntry {
     Bounds box;
     uint32_t node;
@@ -114,13 +101,8 @@ class Octree final : public StructureBase<Octree> {
     // entered at or before t, so the walk needs no slack of its own.
     const BoxRay box_ray(ray, root_);
 
-    float t_root = ray.tmin;
-    const bool hit_root = !nodes_.empty() && intersect_box(root_, box_ray, limit(), t_root);
-    record.box(0, root_, 0, hit_root, t_root);
-    if (!hit_root) {
-      record.ignored();
-      return;
-    }
+    float t_root;
+    if (!enter_root(root_, !nodes_.empty(), box_ray, limit(), record, t_root)) return;
     // Visiting octants in the order k ^ near_octant is front to back: along a ray each octant bit
     // can only turn on, so the octants a ray passes come in increasing order of k. The signs are the
     // box test's (effective_direction): a tiny or -0 component counts as +0 in both.

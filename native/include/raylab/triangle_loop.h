@@ -4,6 +4,8 @@
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
 
+#include <span>
+
 namespace raylab {
 
 // Tests triangles index(0..count-1) and keeps the closest in `best` (best.t bounds the search).
@@ -65,6 +67,40 @@ inline bool any_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& 
   const TriangleTester tester(ray, kind);
   return any_in_triangles(mesh, tester, uint32_t(mesh.triangle_count()), [](uint32_t i) { return i; },
                           ray.tmax, record);
+}
+
+// The two queries of a structure that walks its leaves front to back (octree nodes, grid cells).
+// `walk(limit, visit)` hands each leaf's triangle indices (a span) to `visit` in order; `visit`
+// returns true to stop; `limit()` is how far the walk must still look (the closest hit so far, or
+// ray.tmax for any hit).
+template <class Recorder, class Walk>
+inline bool closest_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Hit& hit,
+                                Recorder& record, Walk walk) {
+  record.ray();
+  const TriangleTester tester(ray, kind);
+  Hit best = initial_hit(ray);
+  bool found = false;
+  walk([&] { return best.t; }, [&](std::span<const uint32_t> leaf) {
+    found |= closest_in_triangles(mesh, tester, uint32_t(leaf.size()), [&](uint32_t i) { return leaf[i]; }, best,
+                                  record);
+    return false;
+  });
+  if (found) hit = best;
+  return found;
+}
+
+template <class Recorder, class Walk>
+inline bool any_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Recorder& record,
+                            Walk walk) {
+  record.ray();
+  const TriangleTester tester(ray, kind);
+  bool occluded = false;
+  walk([&] { return ray.tmax; }, [&](std::span<const uint32_t> leaf) {
+    occluded = any_in_triangles(mesh, tester, uint32_t(leaf.size()), [&](uint32_t i) { return leaf[i]; },
+                                ray.tmax, record);
+    return occluded;
+  });
+  return occluded;
 }
 
 }  // namespace raylab
