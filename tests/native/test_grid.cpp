@@ -50,7 +50,8 @@ glm::ivec3 cell_of_index(const Grid& g, uint32_t cell) {
 
 TEST(GridBuild, ResolutionFollowsPbrtsRule) {
   const MeshPtr bunny = shipped("bunny.obj");
-  const Grid& g = grid_of(*build(bunny, StructureKind::Grid));
+  const auto structure = build(bunny, StructureKind::Grid);  // outlives the reference below
+  const Grid& g = grid_of(*structure);
   const glm::vec3 e = bunny->bounds().extent();
   const float longest = std::max({e.x, e.y, e.z});
   const double per_unit = 3.0 * std::cbrt(double(bunny->triangle_count())) / longest;
