@@ -19,7 +19,7 @@ from . import _raylab
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
     "DEFAULTS", "RAY_STATUSES", "BuildError", "load_mesh", "build", "build_file",
-    "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "render", "camera_rays", "write_image",
+    "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "write_image",
 ]
 
 # The core's vocabularies (native/python/vocabulary.cpp), never listed again in Python.
@@ -60,9 +60,9 @@ class Hits(_Record):
 
 class Statuses(_Record):
     """Closest hits of N rays with each ray's status: status (N,) int8, an index into RAY_STATUSES;
-    t, triangle, u, v, hit as in Hits."""
+    t, triangle, u, v, instance, hit as in Hits."""
 
-    __slots__ = ("status", "t", "triangle", "u", "v", "hit")
+    __slots__ = ("status", "t", "triangle", "u", "v", "instance", "hit")
 
     def __len__(self):
         return len(self.t)
@@ -84,6 +84,34 @@ class RayStory(_Record):
     """
 
     __slots__ = ("status", "boxes", "nodes", "node_depths", "triangles", "triangle_hits", "hit", "stats")
+
+
+class SceneStory(_Record):
+    """What one world ray did in a Scene, recorded by the same traversal as Scene.intersect.
+
+    status and stats are the scene's (stats equal intersect(count=True)'s for this ray); hit is None
+    or dict(t, triangle, u, v, instance, point) in world space. top_boxes and top_nodes: the top
+    level's boxes (world space, as in RayStory.boxes) and nodes, empty for structures without a top
+    level. instances: one InstancePart per instance queried, in order.
+    """
+
+    __slots__ = ("status", "top_boxes", "top_nodes", "instances", "hit", "stats")
+
+    def __init__(self, fields):
+        super().__init__(fields)
+        self.instances = [InstancePart(p) for p in self.instances]
+
+
+class InstancePart(_Record):
+    """One instance's part of a SceneStory: instance and mesh ids, matrix ((4,4) object to world),
+    and story, the RayStory of the ray carried into object space (boxes and hit in object space; its
+    t is the world ray's t)."""
+
+    __slots__ = ("instance", "mesh", "matrix", "story")
+
+    def __init__(self, fields):
+        super().__init__(fields)
+        self.story = RayStory(self.story)
 
 
 def load_mesh(path):
@@ -215,6 +243,26 @@ class Scene:
 
     def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
         return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count))
+
+    def statuses(self, origins, directions, tmin=0.0, tmax=math.inf):
+        """Closest hits of world rays with each ray's status, as Structure.statuses (h.instance set)."""
+        return Statuses(self.native.statuses(origins, directions, tmin, tmax))
+
+    def story(self, origin, direction, tmin=0.0, tmax=math.inf):
+        """Everything one world ray did: a SceneStory."""
+        return SceneStory(self.native.story(origin, direction, tmin, tmax))
+
+    def structure(self, mesh):
+        """The committed Structure of mesh `mesh` (object space), e.g. for its boxes()."""
+        return Structure(self.native.structure(mesh))
+
+    def matrix(self, instance):
+        """The (4,4) object-to-world matrix of instance `instance`, as the scene holds it (float32)."""
+        return self.native.matrix(instance)
+
+    def clear_instances(self):
+        """Drops every instance; the meshes and their built structures stay for new instances."""
+        self.native.clear_instances()
 
     mesh_count = property(lambda self: self.native.mesh_count)
     instance_count = property(lambda self: self.native.instance_count)

@@ -218,6 +218,14 @@ py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded) {
   return d;
 }
 
+py::array_t<float> matrix_to_array(const glm::mat4& m) {
+  py::array_t<float> a({py::ssize_t(4), py::ssize_t(4)});
+  float* p = a.mutable_data();
+  for (int row = 0; row < 4; ++row)
+    for (int col = 0; col < 4; ++col) p[4 * row + col] = m[col][row];
+  return a;
+}
+
 py::dict stats_to_dict(const TraversalStats& s) {
   py::dict d;
   for (const CounterInfo& c : kCounters) d[c.name] = s.*c.field;

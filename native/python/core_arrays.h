@@ -6,6 +6,9 @@
 #include "parameters.h"
 
 #include "raylab/geometry.h"
+#include "raylab/scene_snapshot.h"
+
+#include <glm/mat4x4.hpp>
 #include "raylab/structure.h"
 
 #include <pybind11/numpy.h>
@@ -54,6 +57,43 @@ Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin, py
 py::dict hits_to_dict(const std::vector<Hit>& hits, bool single_instance);
 py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded);
 py::dict stats_to_dict(const TraversalStats& stats);
+
+// glm's column-major matrix as numpy's row-major (4,4) float32.
+py::array_t<float> matrix_to_array(const glm::mat4& m);
+
+// (N,3) float32 rows of points, and a column of one field of each item.
+inline py::array_t<float> rows(const std::vector<glm::vec3>& points) {
+  py::array_t<float> a({py::ssize_t(points.size()), py::ssize_t(3)});
+  float* p = a.mutable_data();
+  for (size_t i = 0; i < points.size(); ++i)
+    for (int c = 0; c < 3; ++c) p[3 * i + c] = points[i][c];
+  return a;
+}
+template <class T, class Item, class Field>
+py::array_t<T> column(const std::vector<Item>& items, Field field) {
+  py::array_t<T> a(py::ssize_t(items.size()));
+  T* p = a.mutable_data();
+  for (size_t i = 0; i < items.size(); ++i) p[i] = T(field(items[i]));
+  return a;
+}
+// stories.cpp: one ray's story (see RayStory / SceneStory) and batch statuses (indices into RAY_STATUSES).
+py::dict story_to_dict(const RayStory& story);
+py::dict scene_story_to_dict(const SceneStory& story, const SceneSnapshot& scene);
+py::dict statuses_to_dict(const std::vector<Hit>& hits, const std::vector<RayStatus>& statuses, bool single_instance);
+
+// A batch of closest hits with statuses: `trace(rays, hits, statuses)` runs with the GIL released.
+template <class Trace>
+py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
+                       bool single_instance, Trace trace) {
+  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
+  std::vector<Hit> hits(rays.size());
+  std::vector<RayStatus> status(rays.size());
+  {
+    py::gil_scoped_release release;
+    trace(rays, hits, status);
+  }
+  return statuses_to_dict(hits, status, single_instance);
+}
 
 
 // A batch query: rays from the arrays, `trace(rays, results, stats)` with the GIL released while both

@@ -47,22 +47,6 @@ py::tuple mesh_to_arrays(const TriangleMesh& mesh) {
   return py::make_tuple(v, t);
 }
 
-py::array_t<float> rows(const std::vector<glm::vec3>& points) {
-  py::array_t<float> a({py::ssize_t(points.size()), py::ssize_t(3)});
-  float* p = a.mutable_data();
-  for (size_t i = 0; i < points.size(); ++i)
-    for (int c = 0; c < 3; ++c) p[3 * i + c] = points[i][c];
-  return a;
-}
-
-template <class T, class Item, class Field>
-py::array_t<T> column(const std::vector<Item>& items, Field field) {
-  py::array_t<T> a(py::ssize_t(items.size()));
-  T* p = a.mutable_data();
-  for (size_t i = 0; i < items.size(); ++i) p[i] = T(field(items[i]));
-  return a;
-}
-
 py::dict boxes(const Structure& s) {
   const std::vector<BoxInfo> b = s.boxes();
   std::vector<glm::vec3> lo, hi;
@@ -86,54 +70,13 @@ py::dict story(const Structure& s, py::handle origin, py::handle direction, py::
     py::gil_scoped_release release;
     st = s.story(ray);
   }
-  std::vector<glm::vec3> lo, hi;
-  for (const StoryBox& b : st.boxes) {
-    lo.push_back(b.bounds.lo);
-    hi.push_back(b.bounds.hi);
-  }
-  py::dict box_dict;
-  box_dict["lo"] = rows(lo);
-  box_dict["hi"] = rows(hi);
-  box_dict["depth"] = column<int32_t>(st.boxes, [](const StoryBox& b) { return b.depth; });
-  box_dict["hit"] = column<bool>(st.boxes, [](const StoryBox& b) { return b.hit; });
-  box_dict["t_entry"] = column<float>(st.boxes, [](const StoryBox& b) { return b.hit ? b.t_entry : kInfinity; });
-  box_dict["node"] = column<int32_t>(st.boxes, [](const StoryBox& b) { return b.node; });
-
-  py::dict d;
-  d["status"] = ray_status_name(st.status);
-  d["boxes"] = box_dict;
-  d["nodes"] = column<int32_t>(st.nodes, [](const StoryNode& n) { return n.node; });
-  d["node_depths"] = column<int32_t>(st.nodes, [](const StoryNode& n) { return n.depth; });
-  d["triangles"] = column<int32_t>(st.triangles, [](const StoryTriangle& t) { return t.triangle; });
-  d["triangle_hits"] = column<bool>(st.triangles, [](const StoryTriangle& t) { return t.hit; });
-  if (st.hit.valid()) {
-    py::dict hit;
-    hit["t"] = st.hit.t;
-    hit["triangle"] = int32_t(st.hit.triangle);
-    hit["u"] = st.hit.u;
-    hit["v"] = st.hit.v;
-    const glm::vec3 point = ray.at(st.hit.t);
-    hit["point"] = py::array_t<float>(3, &point.x);
-    d["hit"] = hit;
-  } else {
-    d["hit"] = py::none();
-  }
-  d["stats"] = stats_to_dict(st.stats);
-  return d;
+  return story_to_dict(st);
 }
 
 // Closest hits plus each ray's status as an index into RAY_STATUSES.
 py::dict statuses(const Structure& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax) {
-  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<Hit> hits(rays.size());
-  std::vector<RayStatus> status(rays.size());
-  {
-    py::gil_scoped_release release;
-    intersect_with_status(s, rays, hits, status);
-  }
-  py::dict d = hits_to_dict(hits, true);
-  d["status"] = column<int8_t>(status, [](RayStatus r) { return int8_t(r); });
-  return d;
+  return status_arrays(origins, directions, tmin, tmax, true,
+                       [&](const auto& rays, auto& hits, auto& status) { intersect_with_status(s, rays, hits, status); });
 }
 
 }  // namespace

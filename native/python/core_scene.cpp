@@ -114,6 +114,43 @@ void bind_scene(py::module_& m) {
            py::arg("tmax") = kNoLimit, py::arg("count") = false)
       .def("occluded", &occluded_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false)
+      .def("clear_instances", &Scene::clear_instances)
+      .def(
+          "statuses",
+          [](const Scene& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax) {
+            return status_arrays(origins, directions, tmin, tmax, false, [&](const auto& rays, auto& hits, auto& status) {
+              intersect_with_status(s, rays, hits, status);
+            });
+          },
+          py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0, py::arg("tmax") = kNoLimit)
+      .def(
+          "story",
+          [](const Scene& s, py::handle origin, py::handle direction, py::handle tmin, py::handle tmax) {
+            const Ray ray = ray_from_arrays(origin, direction, tmin, tmax);
+            const SceneSnapshotPtr snapshot = s.snapshot();
+            SceneStory st;
+            {
+              py::gil_scoped_release release;
+              st = snapshot->story(ray);
+            }
+            return scene_story_to_dict(st, *snapshot);
+          },
+          py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0, py::arg("tmax") = kNoLimit)
+      .def(
+          "structure",
+          [](const Scene& s, py::handle mesh) {
+            const SceneSnapshotPtr snapshot = s.snapshot();
+            // Every Structure method Python reaches is const; the binding's holder type is not.
+            return std::const_pointer_cast<Structure>(
+                snapshot->structure_ptr(id_parameter(mesh, snapshot->mesh_count(), "mesh")));
+          },
+          py::arg("mesh"))
+      .def(
+          "matrix",
+          [](const Scene& s, py::handle instance) {
+            return matrix_to_array(s.instance(id_parameter(instance, s.instance_count(), "instance")).transform);
+          },
+          py::arg("instance"))
       .def_property_readonly("mesh_count", &Scene::mesh_count)
       .def_property_readonly("instance_count", &Scene::instance_count)
       .def_property_readonly("memory_bytes", &Scene::memory_bytes)

@@ -184,6 +184,12 @@ void Scene::set_transform(uint32_t instance, const glm::mat4& transform) {
   impl_->changed(true);
 }
 
+void Scene::clear_instances() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->edited.instances.clear();
+  impl_->changed(true);
+}
+
 void Scene::set_settings(const BuildSettings& settings) {
   settings.validate();
   std::lock_guard lock(impl_->mutex);
@@ -255,6 +261,8 @@ bool Scene::closest(const Ray& ray, Hit& hit, TraversalStats* stats) const {
 
 bool Scene::any(const Ray& ray, TraversalStats* stats) const { return snapshot()->any(ray, stats); }
 
+SceneStory Scene::story(const Ray& ray) const { return snapshot()->story(ray); }
+
 size_t Scene::mesh_count() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->edited.meshes.size();
@@ -307,6 +315,11 @@ void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
                    TraversalStats* stats) {
   intersect_any(*scene.snapshot(), rays, occluded, stats);
+}
+
+void intersect_with_status(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
+                           std::span<RayStatus> statuses) {
+  intersect_with_status(*scene.snapshot(), rays, hits, statuses);
 }
 
 }  // namespace raylab

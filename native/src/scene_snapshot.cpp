@@ -4,6 +4,7 @@
 #include "raylab/box_intersection.h"
 #include "raylab/bvh.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -110,26 +111,27 @@ bool SceneSnapshot::query_instance(uint32_t k, const Ray& ray, float limit, Reco
   const Ray r = to_object(inst, ray, limit);
   if constexpr (Recorder::kActive) {
     TraversalStats counts;
-    const bool found = query(s, r, &counts);
+    const bool found = query(k, s, r, &counts);
     if (counts.rays_ignored == 0) entered = true;
     for (const CounterInfo& c : kCounters)
       if (c.object_work) record.stats.*c.field += counts.*c.field;
     return found;
   } else {
-    return query(s, r, nullptr);
+    return query(k, s, r, nullptr);
   }
 }
 
-template <class Recorder>
-bool SceneSnapshot::closest(const Ray& ray, Hit& hit, Recorder& record) const {
+template <class Recorder, class Query>
+bool SceneSnapshot::closest(const Ray& ray, Hit& hit, Recorder& record, Query query) const {
   Hit best = initial_hit(ray);
   float tmax = ray.tmax;
   bool entered = false;
   traverse(ray, record, tmax, [&](uint32_t k, float limit) {
     Hit h;
-    const bool found = query_instance(k, ray, limit, record, entered, [&](const Structure& s, const Ray& r, TraversalStats* st) {
-      return st ? s.closest(r, h, *st) : s.closest(r, h);
-    });
+    const bool found = query_instance(k, ray, limit, record, entered,
+                                      [&](uint32_t k, const Structure& s, const Ray& r, TraversalStats* st) {
+                                        return query(k, s, r, h, st);
+                                      });
     // Equal t across instances: the lower instance index wins, whatever the visiting order.
     if (found && (h.t < best.t || (h.t == best.t && k < best.instance))) {
       best = h;
@@ -149,7 +151,7 @@ bool SceneSnapshot::any(const Ray& ray, Recorder& record) const {
   float tmax = ray.tmax;
   bool entered = false;
   traverse(ray, record, tmax, [&](uint32_t k, float limit) {
-    found = query_instance(k, ray, limit, record, entered, [&](const Structure& s, const Ray& r, TraversalStats* st) {
+    found = query_instance(k, ray, limit, record, entered, [&](uint32_t, const Structure& s, const Ray& r, TraversalStats* st) {
       return st ? s.any(r, *st) : s.any(r);
     });
     return found ? -kInfinity : limit;
@@ -158,13 +160,66 @@ bool SceneSnapshot::any(const Ray& ray, Recorder& record) const {
   return found;
 }
 
+namespace {
+
+bool closest_in(const Structure& s, const Ray& r, Hit& h, TraversalStats* st) {
+  return st ? s.closest(r, h, *st) : s.closest(r, h);
+}
+
+// The top level's part of a scene story; the instances' parts come from their own stories.
+struct SceneStoryRecord {
+  static constexpr bool kActive = true;
+  SceneStory& story;
+  TraversalStats& stats;
+  void ray() { ++stats.rays; }
+  void ignored() {
+    ++stats.rays_ignored;
+    story.ignored = true;
+  }
+  void box(uint32_t node, const Bounds& b, int depth, bool hit, float t_entry) {
+    ++stats.box_tests;
+    story.top_boxes.push_back({node, b, depth, hit, t_entry});
+  }
+  void node(uint32_t node, int depth) {
+    ++stats.nodes_visited;
+    story.top_nodes.push_back({node, depth});
+  }
+};
+
+}  // namespace
+
+void SceneStory::finish() {
+  const bool tested = std::any_of(instances.begin(), instances.end(),
+                                  [](const Part& p) { return !p.story.triangles.empty(); });
+  status = ray_status(hit.valid(), ignored, tested);
+}
+
 bool SceneSnapshot::closest(const Ray& ray, Hit& hit, TraversalStats* stats) const {
+  const auto query = [](uint32_t, const Structure& s, const Ray& r, Hit& h, TraversalStats* st) {
+    return closest_in(s, r, h, st);
+  };
   if (stats) {
     StatsRecord record{*stats};
-    return closest(ray, hit, record);
+    return closest(ray, hit, record, query);
   }
   NoRecord record;
-  return closest(ray, hit, record);
+  return closest(ray, hit, record, query);
+}
+
+SceneStory SceneSnapshot::story(const Ray& ray) const {
+  SceneStory st;
+  st.ray = ray;
+  SceneStoryRecord record{st, st.stats};
+  closest(ray, st.hit, record, [&](uint32_t k, const Structure& s, const Ray& r, Hit& h, TraversalStats* counts) {
+    RayStory part = s.story(r);
+    *counts = part.stats;
+    h = part.hit;
+    const bool found = part.hit.valid();
+    st.instances.push_back({k, std::move(part)});
+    return found;
+  });
+  st.finish();
+  return st;
 }
 
 bool SceneSnapshot::any(const Ray& ray, TraversalStats* stats) const {
@@ -195,6 +250,11 @@ const Structure& SceneSnapshot::structure(uint32_t m) const {
   return *meshes_[m].structure;
 }
 
+std::shared_ptr<const Structure> SceneSnapshot::structure_ptr(uint32_t m) const {
+  mesh(m);  // checks the id
+  return meshes_[m].structure;
+}
+
 const std::vector<glm::vec3>* SceneSnapshot::shading_normals(uint32_t m) const {
   mesh(m);  // checks the id
   return meshes_[m].shading_normals.get();
@@ -223,6 +283,13 @@ void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::s
                    TraversalStats* stats) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
   for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); });
+}
+
+void intersect_with_status(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
+                           std::span<RayStatus> statuses) {
+  statuses_of_rays(rays, hits, statuses, [&](const Ray& ray, Hit& hit, TraversalStats& own) {
+    return scene.closest(ray, hit, &own);
+  });
 }
 
 }  // namespace raylab

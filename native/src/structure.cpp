@@ -96,15 +96,8 @@ void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint
 
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
                            std::span<RayStatus> statuses) {
-  if (hits.size() != rays.size() || statuses.size() != rays.size())
-    throw std::invalid_argument("hits, statuses and rays differ in length");
-  for_each_ray(rays.size(), nullptr, [&](size_t i, TraversalStats*) {
-    TraversalStats own;  // this ray's counters alone
-    Hit h;
-    const bool hit = s.closest(rays[i], h, own);
-    hits[i] = h;
-    statuses[i] = ray_status(hit, own.rays_ignored > 0, own.triangle_tests > 0);
-  });
+  statuses_of_rays(rays, hits, statuses,
+                   [&](const Ray& ray, Hit& hit, TraversalStats& own) { return s.closest(ray, hit, own); });
 }
 
 }  // namespace raylab

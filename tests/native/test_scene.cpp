@@ -247,6 +247,49 @@ TEST(Scene, RaysIgnoredAreRaysThatEnterNoObject) {
   }
 }
 
+// The story is recorded by the same traversal as closest(): the same hit and counters ray by ray,
+// the top level's boxes and nodes in it, and each queried instance's own story.
+TEST(Scene, StoryTellsWhatClosestDid) {
+  for (const StructureInfo& info : structure_kinds()) {
+    BuildSettings settings;
+    settings.kind = info.kind;
+    Scene scene(settings);
+    const uint32_t m = scene.add_mesh(load("bunny.obj"));
+    scene.add_instance(m, glm::mat4(1.0f));
+    scene.add_instance(m, glm::rotate(translation(0.1f, 0, 0), 0.7f, glm::vec3(0, 1, 0)));
+    scene.commit();
+    const Bounds box = scene.bounds();
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    int hits = 0;
+    for (int i = 0; i < 200; ++i) {
+      const glm::vec3 origin = box.center() + 2.0f * box.extent() * glm::vec3(unit(rng), unit(rng), unit(rng));
+      const glm::vec3 target = box.center() + 0.6f * box.extent() * glm::vec3(unit(rng), unit(rng), unit(rng));
+      const Ray ray = ray_from(origin, target - origin);
+      TraversalStats stats;
+      Hit h;
+      const bool found = scene.closest(ray, h, &stats);
+      const SceneStory st = scene.story(ray);
+      ASSERT_EQ(st.hit.valid(), found) << info.name << " ray " << i;
+      hits += found;
+      if (found) {
+        EXPECT_EQ(st.hit.t, h.t);
+        EXPECT_EQ(st.hit.triangle, h.triangle);
+        EXPECT_EQ(st.hit.instance, h.instance);
+      }
+      for (const CounterInfo& c : kCounters) EXPECT_EQ(st.stats.*c.field, stats.*c.field) << info.name << " " << c.name;
+      EXPECT_EQ(st.top_boxes.size() + [&] {
+        size_t n = 0;
+        for (const SceneStory::Part& p : st.instances) n += p.story.boxes.size();
+        return n;
+      }(), stats.box_tests);
+      EXPECT_EQ(st.top_boxes.empty(), !info.uses_top_level);
+      EXPECT_EQ(st.status, ray_status(found, stats.rays_ignored > 0, stats.triangle_tests > 0));
+    }
+    EXPECT_GT(hits, 20) << info.name;
+  }
+}
+
 // Threads: one thread changes the scene and commits while others query. Every answer must be the
 // brute-force answer of one committed state, the old or the new, never a mix (nor a crash).
 namespace {

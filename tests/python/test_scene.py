@@ -157,3 +157,88 @@ def test_a_tiny_uniform_scale_is_invertible_and_hit(sphere, scale):
     assert hits.hit[0] and abs(hits.t[0] - (1 - scale)) <= 1e-6
     with pytest.raises(ValueError, match="overflows"):
         scene.add_instance(m, translate(0, scale=1e-40))
+
+
+def _random_world_rays(count, seed):
+    rng = np.random.default_rng(seed)
+    origins = rng.uniform(-8, 8, (count, 3)).astype(np.float32)
+    targets = rng.uniform(-3, 4, (count, 3)).astype(np.float32)  # mostly towards the two spheres
+    return origins, (targets - origins).astype(np.float32)
+
+
+@pytest.mark.parametrize("structure", raylab.STRUCTURES)
+def test_a_scene_story_is_what_intersect_did_for_that_ray(two_spheres, structure):
+    """The story's hit, instance and counters are the batch query's, ray by ray; its status is the
+    batch statuses'; each instance part is that instance's own story of the ray in object space."""
+    scene = two_spheres(structure)
+    origins, directions = _random_world_rays(300, seed=5)
+    batch = scene.statuses(origins, directions)
+    seen = set()
+    for i in range(len(origins)):
+        st = scene.story(origins[i], directions[i])
+        one = scene.intersect(origins[i], directions[i], count=True)
+        assert st.stats == one.stats
+        assert raylab.RAY_STATUSES.index(st.status) == batch.status[i]
+        seen.add(st.status)
+        if one.hit[0]:
+            assert (st.hit["t"], st.hit["triangle"], st.hit["instance"]) == (one.t[0], one.triangle[0], one.instance[0])
+            assert (batch.t[i], batch.instance[i]) == (one.t[0], one.instance[0])
+            assert np.allclose(st.hit["point"], origins[i] + one.t[0] * directions[i], atol=1e-4)
+        else:
+            assert st.hit is None and not batch.hit[i]
+        object_work = sum(p.story.stats["triangle_tests"] for p in st.instances)
+        assert object_work == st.stats["triangle_tests"]
+        for part in st.instances:
+            matrix = scene.matrix(part.instance)
+            assert part.mesh == 0 and np.array_equal(part.matrix, matrix)
+            inverse = np.linalg.inv(matrix.astype(np.float64))
+            local = raylab.build(*scene.structure(0).mesh(), structure=structure).story(
+                (inverse @ np.append(origins[i], 1.0))[:3].astype(np.float32),
+                (inverse[:3, :3] @ directions[i]).astype(np.float32))
+            if part.story.hit is None or local.hit is None:
+                continue  # a closer instance may have cut this part's ray short
+            assert part.story.hit["t"] <= local.hit["t"] or np.isclose(part.story.hit["t"], local.hit["t"])
+    assert "hit_object" in seen and len(seen) >= 2  # the rays tell more than one case
+
+
+@pytest.mark.parametrize("structure", [s for s, info in raylab.STRUCTURE_INFO.items() if info["uses_top_level"]])
+def test_a_scene_story_shows_the_top_level_in_world_space(two_spheres, structure):
+    scene = two_spheres(structure)
+    st = scene.story([-3, 0, -10], [0, 0, 1])
+    boxes = st.top_boxes
+    assert len(boxes["lo"]) == st.stats["box_tests"] - sum(p.story.stats["box_tests"] for p in st.instances)
+    assert boxes["hit"][0] and len(st.top_nodes) >= 1
+    # The root of the top level holds both spheres: x from -4 to 5 in the world.
+    assert boxes["lo"][0][0] == pytest.approx(-4, abs=1e-3) and boxes["hi"][0][0] == pytest.approx(5, abs=1e-3)
+    assert [p.instance for p in st.instances] == [0] and st.hit["instance"] == 0
+    missed = scene.story([0, 10, -10], [0, 0, 1])
+    assert missed.status == "missed_root" and missed.instances == [] and not missed.top_boxes["hit"][0]
+
+
+def test_a_scene_without_top_level_queries_every_instance():
+    scene = raylab.Scene(structure="none")
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    m = scene.add_mesh(vertices, np.array([[0, 1, 2]], np.uint32))
+    for x in (0, 5, 10):
+        scene.add_instance(m, translate(x))
+    scene.commit()
+    st = scene.story([0.25, 0.25, 1], [0, 0, -1])
+    assert [p.instance for p in st.instances] == [0, 1, 2] and len(st.top_boxes["lo"]) == 0
+    assert st.status == "hit_object" and st.hit["instance"] == 0
+    assert [p.story.status for p in st.instances] == ["hit_object", "missed_triangles", "missed_triangles"]
+
+
+def test_scene_structures_and_cleared_instances(two_spheres, sphere):
+    scene = two_spheres("octree")
+    s = scene.structure(0)
+    assert s.structure == "octree" and s.triangle_count == len(sphere[1])
+    assert len(s.boxes()["lo"]) > 1
+    scene.clear_instances()
+    scene.add_instance(0, translate(0, 20))
+    scene.commit()
+    assert scene.instance_count == 1
+    assert scene.structure(0).native is not None and scene.story([0, 20, -10], [0, 0, 1]).hit["instance"] == 0
+    with pytest.raises(ValueError, match="unknown mesh id 3"):
+        scene.structure(3)
+    with pytest.raises(ValueError, match="unknown instance id 1"):
+        scene.matrix(1)

@@ -8,6 +8,8 @@
 #include <tbb/parallel_for.h>
 
 #include <cstddef>
+#include <span>
+#include <stdexcept>
 
 namespace raylab {
 
@@ -27,6 +29,21 @@ void for_each_ray(size_t n, TraversalStats* stats, Query query) {
     for (size_t i = r.begin(); i != r.end(); ++i) query(i, &s);
   });
   local.combine_each([&](const TraversalStats& s) { *stats += s; });
+}
+
+// Closest hits and each ray's status, derived from that ray's own counters as its story would be
+// (ray_status): `closest(ray, hit, own_stats)` is a structure's or a scene's counted query.
+template <class Closest>
+void statuses_of_rays(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayStatus> statuses, Closest closest) {
+  if (hits.size() != rays.size() || statuses.size() != rays.size())
+    throw std::invalid_argument("hits, statuses and rays differ in length");
+  for_each_ray(rays.size(), nullptr, [&](size_t i, TraversalStats*) {
+    TraversalStats own;  // this ray's counters alone
+    Hit h;
+    const bool hit = closest(rays[i], h, own);
+    hits[i] = h;
+    statuses[i] = ray_status(hit, own.rays_ignored > 0, own.triangle_tests > 0);
+  });
 }
 
 }  // namespace raylab

@@ -35,6 +35,9 @@ class Scene {
   // Throws std::invalid_argument on an unknown mesh id or a singular / non-finite transform.
   uint32_t add_instance(uint32_t mesh, const glm::mat4& transform, uint32_t material = 0);
   void set_transform(uint32_t instance, const glm::mat4& transform);
+  // Drops every instance; the meshes and their built structures stay, so a new set of instances of
+  // them (the objects now shown) costs only the top level.
+  void clear_instances();
   void set_settings(const BuildSettings& settings);  // rebuilds every mesh structure on commit()
 
   // Builds what is missing or stale (per-mesh structures, then the top level) and publishes it.
@@ -48,6 +51,7 @@ class Scene {
   // Queries on snapshot(); see SceneSnapshot. Many rays: take the snapshot once.
   bool closest(const Ray& ray, Hit& hit, TraversalStats* stats = nullptr) const;
   bool any(const Ray& ray, TraversalStats* stats = nullptr) const;
+  SceneStory story(const Ray& ray) const;
 
   // The edited state, with changes not committed yet.
   size_t mesh_count() const;
@@ -74,5 +78,7 @@ void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats);
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
                    TraversalStats* stats);
+void intersect_with_status(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
+                           std::span<RayStatus> statuses);
 
 }  // namespace raylab

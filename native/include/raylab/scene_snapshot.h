@@ -36,6 +36,26 @@ struct SceneInstance {
   glm::mat4 world_to_object;
 };
 
+// What one world ray did in a scene, recorded by the same traversal as closest(): the top level's
+// boxes and nodes (world space; none without a top level), then every instance it queried, in
+// order, with that instance's own story (object space: its ray is the world ray carried there).
+struct SceneStory {
+  struct Part {
+    uint32_t instance;
+    RayStory story;
+  };
+  Ray ray;
+  std::vector<StoryBox> top_boxes;  // in test order
+  std::vector<StoryNode> top_nodes;  // in visit order
+  std::vector<Part> instances;       // in query order
+  Hit hit;                           // world t; hit.instance set
+  TraversalStats stats;              // exactly what closest() counts for this ray
+  RayStatus status = RayStatus::MissedRoot;
+  bool ignored = false;              // no instance's structure took the ray
+
+  void finish();
+};
+
 class SceneSnapshot {
  public:
   // Every mesh has its structure; `top` is the top level over the instances' world boxes.
@@ -47,12 +67,14 @@ class SceneSnapshot {
   // and `aabb` every object meets every ray, as in VRT; octree and bvh scenes add a top level.
   bool closest(const Ray& ray, Hit& hit, TraversalStats* stats = nullptr) const;
   bool any(const Ray& ray, TraversalStats* stats = nullptr) const;
+  SceneStory story(const Ray& ray) const;
 
   size_t mesh_count() const { return meshes_.size(); }
   size_t instance_count() const { return instances_.size(); }
   const Instance& instance(uint32_t i) const;
   const TriangleMesh& mesh(uint32_t m) const;
   const Structure& structure(uint32_t m) const;
+  std::shared_ptr<const Structure> structure_ptr(uint32_t m) const;  // keeps it alive past the snapshot
   const std::vector<glm::vec3>* shading_normals(uint32_t m) const;  // null: flat (face normals)
   Bounds bounds() const;        // world bounds of every instance
   size_t memory_bytes() const;  // structures + top level
@@ -68,8 +90,9 @@ class SceneSnapshot {
   // object's structure ignored the ray.
   template <class Recorder, class Query>
   bool query_instance(uint32_t k, const Ray& ray, float limit, Recorder& record, bool& entered, Query query) const;
-  template <class Recorder>
-  bool closest(const Ray& ray, Hit& hit, Recorder& record) const;
+  // `query(k, structure, object_ray, hit, stats_or_null)` runs instance k's closest-hit query.
+  template <class Recorder, class Query>
+  bool closest(const Ray& ray, Hit& hit, Recorder& record, Query query) const;
   template <class Recorder>
   bool any(const Ray& ray, Recorder& record) const;
   bool uses_top_level() const;
@@ -93,5 +116,8 @@ void intersect_closest(const SceneSnapshot& scene, std::span<const Ray> rays, st
                        TraversalStats* stats);
 void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
                    TraversalStats* stats);
+// Closest hits and each ray's status, what its story would say: the probe's fan.
+void intersect_with_status(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
+                           std::span<RayStatus> statuses);
 
 }  // namespace raylab
