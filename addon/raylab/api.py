@@ -19,7 +19,7 @@ from . import _raylab
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
     "DEFAULTS", "RAY_STATUSES", "BuildError", "load_mesh", "build", "build_file",
-    "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "write_image",
+    "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "image_size", "write_image",
 ]
 
 # The core's vocabularies (native/python/vocabulary.cpp), never listed again in Python.
@@ -284,6 +284,13 @@ def camera_rays(camera, points):
     ((N,3) origins, (N,3) unit directions), float32."""
     rays = _raylab.camera_rays(camera, points)
     return rays["origins"], rays["directions"]
+
+
+def image_size(camera):
+    """(width, height) in pixels of the image render() makes with a camera dict (resolution times
+    percentage, as the renderer's camera rounds it)."""
+    rays = _raylab.camera_rays(camera, [[0.5, 0.5]])
+    return int(rays["width"]), int(rays["height"])
 
 
 def write_image(path, image):

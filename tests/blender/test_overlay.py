@@ -147,3 +147,38 @@ def test_ensure_probe_object_creates_one_arrow(monkey_scene):
     assert probe.ensure_probe_object(scene) is ray
     assert scene.raylab.probe_object is ray
     assert sum(o.type == 'EMPTY' for o in scene.objects) == 1
+
+
+def test_one_raylab_scene_per_blender_scene(monkey_scene):
+    """The overlay and the probe share one raylab.Scene per Blender scene, changed only where Blender
+    changed: a move moves an instance, hiding drops it, showing it again rebuilds nothing."""
+    scene, monkey = monkey_scene
+    scene.raylab.structure = "bvh"
+    bpy.ops.mesh.primitive_cube_add(location=(4.0, 0.0, 0.0))
+    cube = bpy.context.object
+    bpy.context.view_layer.update()
+    model = structure_cache.scene_model(scene)
+    assert sorted(model.instances) == sorted([monkey.name_full, cube.name_full])
+    traced, builds = model.scene, structure_cache.stats["structure_builds"]
+
+    cube.location.x = 7.0
+    bpy.context.view_layer.update()
+    model = structure_cache.scene_model(scene)
+    hit = model.scene.intersect([7.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+    assert model.scene is traced and model.instances[hit.instance[0]] == cube.name_full
+    assert hit.t[0] == pytest.approx(4.0, abs=1e-5)  # the cube's top at z = 1
+
+    cube.hide_set(True)
+    bpy.context.view_layer.update()
+    assert structure_cache.scene_model(scene).instances == [monkey.name_full]
+    assert not structure_cache.scene_model(scene).scene.intersect([7.0, 0.0, 5.0], [0.0, 0.0, -1.0]).hit[0]
+    cube.hide_set(False)
+    bpy.context.view_layer.update()
+    assert structure_cache.scene_model(scene).scene is traced
+    assert structure_cache.stats["structure_builds"] == builds
+
+    cube.scale = (0.0, 0.0, 0.0)  # an instance the scene cannot invert: said, and the rest still traced
+    bpy.context.view_layer.update()
+    assert "singular" in structure_cache.structure_for(cube, scene.raylab).error
+    assert structure_cache.structure_for(monkey, scene.raylab).structure is not None
+    assert structure_cache.scene_model(scene).instances == [monkey.name_full]

@@ -1,5 +1,6 @@
 """The ray probe tells the story the core tells: the four cases of VRT's octree level 2 on a torus,
-the same status and counts as raylab's own story on the same ray, live as the ray object moves.
+the same status and counts as a raylab.Scene's own story of the same world ray, live as the ray
+object moves.
 
 Run inside Blender: blender -b --factory-startup --python-expr "import pytest; pytest.main(['tests/blender'])"
 """
@@ -56,12 +57,13 @@ def aim(ray_object, torus, origin, direction):
     bpy.context.view_layer.update()
 
 
-def core_story(torus, origin, direction, settings):
-    """raylab's own story of the torus-space ray, on a structure built here from the mesh."""
+def core_scene(torus, settings):
+    """raylab's own Scene of the torus: its evaluated mesh under its matrix_world, built here."""
     vertices, triangles = structure_cache.read_mesh(torus, bpy.context.evaluated_depsgraph_get())
-    s = raylab.build(vertices, triangles, structure=settings.structure, max_depth=settings.max_depth,
-                     leaf_size=settings.leaf_size)
-    return s, s.story(np.array(origin, dtype=np.float32), np.array(direction, dtype=np.float32))
+    traced = raylab.Scene(structure=settings.structure, max_depth=settings.max_depth, leaf_size=settings.leaf_size)
+    traced.add_instance(traced.add_mesh(vertices, triangles), np.array(torus.matrix_world))
+    traced.commit()
+    return traced
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -70,21 +72,21 @@ def test_probe_tells_the_cores_story(torus_scene, case):
     origin, direction = CASES[case]
     aim(ray, torus, origin, direction)
     result = probe.evaluate_probe(scene)
-    s, story = core_story(torus, origin, direction, scene.raylab)
+    origins, directions, _ = probe.probe_rays(scene)
+    story = core_scene(torus, scene.raylab).story(origins[0], directions[0])
     assert story.status == case
     assert result["status"] == case
     assert result["triangles_tested"] == story.stats["triangle_tests"]
     assert result["boxes_tested"] == story.stats["box_tests"]
     assert result["nodes_visited"] == story.stats["nodes_visited"]
-    assert result["triangle_total"] == s.triangle_count == len(torus.data.polygons) * 2
+    assert result["triangle_total"] == len(torus.data.polygons) * 2
     # What the levels read is the same evaluation.
     settings = scene.raylab
     assert (settings.probe_status, settings.probe_triangles_tested, settings.probe_boxes_tested,
             settings.probe_nodes_visited) == (case, result["triangles_tested"], result["boxes_tested"],
                                               result["nodes_visited"])
     if case == "hit_object":
-        expected = torus.matrix_world @ Vector(story.hit["point"])
-        assert (Vector(result["hit_point"]) - expected).length < 1e-4
+        assert (Vector(result["hit_point"]) - Vector(story.hit["point"])).length < 1e-4
         # Blender agrees on where the ray meets the torus.
         found, location, *_ = scene.ray_cast(bpy.context.evaluated_depsgraph_get(),
                                              ray.matrix_world.translation,
@@ -93,7 +95,7 @@ def test_probe_tells_the_cores_story(torus_scene, case):
     else:
         assert result["hit_point"] is None
     text = probe.status_text(scene)
-    assert text[0] == probe.status_message(case, "octree")
+    assert text[0] == probe.status_message(story, "octree")
     assert f"triangles tested {result['triangles_tested']} / {result['triangle_total']}" in text[1]
 
 
@@ -136,11 +138,8 @@ def test_a_large_fan_classifies_as_the_story_does(torus_scene):
     fan = probe.probe_result(scene).fan
     assert len(fan[2]) == 144
     origins, directions, _ = probe.probe_rays(scene, fan=True)
-    inverse = np.linalg.inv(np.array(torus.matrix_world))
-    local_origins = origins @ inverse[:3, :3].T + inverse[:3, 3]
-    local_directions = directions @ inverse[:3, :3].T
-    s, _ = core_story(torus, CASES["hit_object"][0], CASES["hit_object"][1], settings)
-    expected = [s.story(o, d).status for o, d in zip(local_origins, local_directions)]
+    traced = core_scene(torus, settings)
+    expected = [traced.story(o, d).status for o, d in zip(origins, directions)]
     assert list(fan[2]) == expected
     assert len(set(expected)) >= 3  # the fan shows several cases, not one
 

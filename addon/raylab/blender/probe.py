@@ -1,10 +1,11 @@
-"""The ray probe: one ray (from the ray object, or from the camera through a pixel) traced through
-every shown object's structure with the core's single-ray story, drawn in the viewport with its
-status text; optionally a fan of N×N rays coloured by what happened to each.
+"""The ray probe: one ray (from the ray object, or from the camera through a pixel) traced through the
+scene model's raylab.Scene (structure_cache: the shown objects, as the renderer models them) with the
+core's single-ray story, drawn in the viewport with its status text; optionally a fan of N×N rays
+coloured by the status each ray's story would give.
 
-Everything drawn and written comes from the stories: the core traces the ray in object space (the
-ray is carried there by the inverse of matrix_world; with the direction not renormalised, the ray
-parameter t is the same in both spaces), and the results are carried back with matrix_world.
+Everything drawn and written comes from the story: its counters are the renderer's for that ray
+(the top level included), each queried object's boxes are drawn in its own space with its matrix,
+and a ray's t is the same in world and object space (the core does not renormalise the direction).
 
 API for the levels:
     evaluate_probe(context_or_scene) -> dict(status, triangles_tested, triangle_total, boxes_tested,
@@ -34,8 +35,13 @@ TEXT_COLOR = (0.92, 0.92, 0.92, 1.0)
 FAN_OBJECT_HALF_ANGLE = math.radians(20.0)  # the ray object's fan: a 40° pyramid around its -Z axis
 
 
-def status_message(status, structure):
+def status_message(story, structure):
+    """The first line of the probe's text: what happened to the ray (a SceneStory)."""
+    status = story.status
     if status == "missed_root":
+        top = story.top_boxes["hit"]
+        if len(top) and not top.any():  # the scene's top level culled it before any structure saw it
+            return "Ray ignored: missed every object's box (the scene's top level)"
         return f"Ray ignored: missed {api.STRUCTURE_INFO[structure]['root_name']}"
     if status == "missed_nodes":
         return "Hit the box, missed the object (no node with triangles entered)"
@@ -53,9 +59,8 @@ def _scene_of(context_or_scene):
 
 
 def render_size(scene):
-    r = scene.render
-    return (max(1, round(r.resolution_x * r.resolution_percentage / 100)),
-            max(1, round(r.resolution_y * r.resolution_percentage / 100)))
+    """The camera's image in pixels, as the renderer makes it."""
+    return api.image_size(scene_export.camera_dict(scene, scene.camera))
 
 
 def camera_rays(scene, pixels):
@@ -83,9 +88,9 @@ def probe_rays(scene, fan=False):
     if settings.probe_source == 'CAMERA':
         if scene.camera is None:
             return None, None, "No camera in the scene"
-        width, height = render_size(scene)
-        pixels = grid * (width, height) - 0.5 if fan else [(settings.probe_pixel_x, settings.probe_pixel_y)]
         try:
+            width, height = render_size(scene)
+            pixels = grid * (width, height) - 0.5 if fan else [(settings.probe_pixel_x, settings.probe_pixel_y)]
             return (*camera_rays(scene, pixels), None)
         except (scene_export.ExportError, ValueError) as error:  # not a camera raylab can model
             return None, None, str(error)
@@ -102,25 +107,8 @@ def probe_rays(scene, fan=False):
 
 # --- evaluation ------------------------------------------------------------------------------------
 
-def _targets(scene):
-    probe_object = scene.raylab.probe_object
-    return [o for o in structure_cache.target_objects(scene) if o != probe_object]
-
-
-class _Traced:
-    """One object's structure and the ray carried into its space."""
-
-    def __init__(self, obj, entry, origins, directions):
-        self.obj = obj
-        self.entry = entry
-        self.model = entry.model_matrix(obj)
-        inverse = np.linalg.inv(self.model)
-        self.origins = structure_cache.transform_points(inverse, origins)
-        self.directions = directions @ inverse[:3, :3].T
-
-
 class ProbeResult:
-    """The public dict, the text, and what the viewport draws (all from the stories)."""
+    """The public dict, the text, and what the viewport draws (all from the scene's stories)."""
 
     def __init__(self, key, public, text, drawing=None, fan=None):
         self.key = key
@@ -134,106 +122,84 @@ def _empty_public():
     return dict(status="", triangles_tested=0, triangle_total=0, boxes_tested=0, nodes_visited=0, hit_point=None)
 
 
-def _combine(stories):
-    """The ray's status over several objects: the most advanced case; the counts add up."""
-    status = max((st.status for st in stories), key=STATUSES.index)
-    return dict(status=status,
-                triangles_tested=sum(int(st.stats["triangle_tests"]) for st in stories),
-                boxes_tested=sum(int(st.stats["box_tests"]) for st in stories),
-                nodes_visited=sum(int(st.stats["nodes_visited"]) for st in stories))
-
-
-def _story_key(scene, targets, depsgraph):
+def _probe_key(scene, model):
+    """Everything the probe's result depends on: the rays, the length, and the scene model's state."""
     settings = scene.raylab
     origins, directions, why_not = probe_rays(scene)
     fan = probe_rays(scene, fan=True) if settings.fan_enabled else (None, None, None)
-    entries = [structure_cache.structure_for(o, settings, depsgraph) for o in targets]
     key = (why_not, None if origins is None else (origins.tobytes(), directions.tobytes()),
            settings.probe_length, None if fan[0] is None else (fan[0].tobytes(), fan[1].tobytes()),
-           tuple((o.name_full, e.key, structure_cache.matrix_of(o).tobytes()) for o, e in zip(targets, entries)))
-    return key, (origins, directions, why_not), fan, entries
+           id(model.scene), model.settings_key, tuple(model.instances), tuple(model.matrices),
+           tuple((name, part.key) for name, part in model.parts.items()), model.error)
+    return key, (origins, directions, why_not), fan
 
 
 def probe_result(scene, depsgraph=None):
-    """The ProbeResult of the scene's probe (and fan), traced again only if anything it depends on
-    changed: the rays, the objects' structures or their transforms."""
+    """The ProbeResult of the scene's probe (and fan) on the scene model's raylab.Scene, traced again
+    only if anything it depends on changed: the rays, the objects' meshes, transforms or settings."""
     settings = scene.raylab
-    targets = _targets(scene)
-    key, (origins, directions, why_not), fan, entries = _story_key(scene, targets, depsgraph)
+    model = structure_cache.scene_model(scene, depsgraph)
+    key, (origins, directions, why_not), fan = _probe_key(scene, model)
     cached = _results.get(scene.name_full)
     if cached is not None and cached.key == key:
         return cached
     public = _empty_public()
+    errors = [f"{name}: {part.error}" for name, part in model.parts.items() if part.error] + \
+        ([model.error] if model.error else [])
     if why_not is not None:
         result = ProbeResult(key, public, [why_not])
-    elif not targets:
+    elif not model.parts:
         result = ProbeResult(key, public, ["No mesh to probe"])
+    elif not model.committed or not model.instances:
+        result = ProbeResult(key, public, errors[:1] or ["No mesh to probe"])
     else:
-        errors = [e.error for e in entries if e.structure is None]
-        traced = [_Traced(o, e, origins, directions) for o, e in zip(targets, entries) if e.structure is not None]
-        if not traced:
-            result = ProbeResult(key, public, errors[:1])
-        else:
-            stories = [t.entry.structure.story(t.origins[0], t.directions[0]) for t in traced]
-            public.update(_combine(stories))
-            public["triangle_total"] = sum(t.entry.structure.triangle_count for t in traced)
-            hits = [(st.hit["t"], st, t) for st, t in zip(stories, traced) if st.hit is not None]
-            nearest = min(hits, key=lambda h: h[0]) if hits else None
-            if nearest is not None:
-                public["hit_point"] = tuple(float(c) for c in origins[0] + nearest[0] * directions[0])
-            text = [status_message(public["status"], settings.structure),
-                    f"triangles tested {public['triangles_tested']} / {public['triangle_total']}, "
-                    f"boxes tested {public['boxes_tested']}, nodes visited {public['nodes_visited']}"]
-            fan_drawing = None
-            if fan[0] is not None:
-                fan_drawing, fan_counts = _trace_fan(_traced_fan(targets, entries, fan), fan, settings.probe_length)
-                text.append("fan: " + ", ".join(f"{fan_counts[s]} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
-            length = nearest[0] if nearest is not None else settings.probe_length
-            result = ProbeResult(key, public, text + errors,
-                                 _drawing(traced, stories, origins[0], directions[0], length), fan_drawing)
+        story = model.scene.story(origins[0], directions[0])
+        public.update(status=story.status, triangle_total=model.triangle_count(),
+                      triangles_tested=int(story.stats["triangle_tests"]), boxes_tested=int(story.stats["box_tests"]),
+                      nodes_visited=int(story.stats["nodes_visited"]))
+        if story.hit is not None:
+            public["hit_point"] = tuple(float(c) for c in origins[0] + story.hit["t"] * directions[0])
+        text = [status_message(story, settings.structure),
+                f"triangles tested {public['triangles_tested']} / {public['triangle_total']}, "
+                f"boxes tested {public['boxes_tested']}, nodes visited {public['nodes_visited']}"]
+        fan_drawing = None
+        if fan[0] is not None:
+            fan_drawing, fan_counts = _trace_fan(model.scene, fan, settings.probe_length)
+            text.append("fan: " + ", ".join(f"{fan_counts[s]} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
+        length = story.hit["t"] if story.hit is not None else settings.probe_length
+        result = ProbeResult(key, public, text + errors, _drawing(story, origins[0], directions[0], length), fan_drawing)
     _results[scene.name_full] = result
     return result
 
 
-def _traced_fan(targets, entries, fan):
-    return [_Traced(o, e, fan[0], fan[1]) for o, e in zip(targets, entries) if e.structure is not None]
-
-
-def fan_statuses(traced):
-    """Per ray of a fan, the index into STATUSES for one object, and the hit distance (inf on miss):
-    the core's statuses, what each ray's story would say."""
-    result = traced.entry.structure.statuses(traced.origins, traced.directions)
-    return result.status.astype(int), result.t.astype(np.float64)
-
-
-def _trace_fan(traced, fan, length):
+def _trace_fan(traced_scene, fan, length):
+    """The fan's rays in world space, ending at their hits (or after `length`), with the statuses the
+    scene's stories would give them, and how many rays have each status."""
     origins, directions, _ = fan
-    codes = np.zeros(len(origins), dtype=int)
-    t = np.full(len(origins), np.inf)
-    for one in traced:
-        c, tt = fan_statuses(one)
-        codes = np.maximum(codes, c)
-        t = np.minimum(t, tt)
+    result = traced_scene.statuses(origins, directions)
+    codes = result.status.astype(int)
+    t = result.t.astype(np.float64)
     ends = origins + np.where(np.isfinite(t), t, length)[:, None] * directions
     counts = {s: int(np.sum(codes == i)) for i, s in enumerate(STATUSES)}
     return (origins, ends, np.array(STATUSES)[codes]), counts
 
 
-def _drawing(traced, stories, origin, direction, length):
-    """What the viewport draws of the probe ray: the ray, boxes (object space, per object), points."""
+def _drawing(story, origin, direction, length):
+    """What the viewport draws of the probe ray: the ray, each queried instance's boxes (in its object
+    space, with its matrix), where the ray entered boxes and where it hit."""
     boxes, entries = [], []
-    for t, st in zip(traced, stories):
-        b = st.boxes
-        visited = np.isin(b["node"], st.nodes) & b["hit"]
+    for part in story.instances:
+        b = part.story.boxes
+        visited = np.isin(b["node"], part.story.nodes) & b["hit"]
         tested_missed = ~b["hit"]
-        boxes.append((t.obj.name_full, t.model, b["lo"][visited], b["hi"][visited],
+        boxes.append((part.instance, part.matrix.astype(np.float64), b["lo"][visited], b["hi"][visited],
                       b["lo"][tested_missed], b["hi"][tested_missed]))
         entry_t = np.asarray(b["t_entry"], dtype=np.float64)[b["hit"]]
-        entries.append(origin + entry_t[:, None] * direction)
-    hit_points = [np.asarray(origin + st.hit["t"] * direction) for st in stories if st.hit is not None]
+        entries.append(origin + entry_t[:, None] * direction)  # the object ray keeps the world t
+    hits = [] if story.hit is None else [origin + story.hit["t"] * direction]
     return dict(ray=(origin, origin + length * direction), boxes=boxes,
                 entries=np.concatenate(entries) if entries else np.zeros((0, 3)),
-                hits=np.array(hit_points).reshape(-1, 3))
+                hits=np.array(hits, dtype=np.float64).reshape(-1, 3))
 
 
 _results = {}  # scene name -> ProbeResult

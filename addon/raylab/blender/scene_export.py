@@ -198,7 +198,8 @@ def world_colour(world):
     return tuple(float(c) for c in world.color)
 
 
-def build_scene(exported, structure="bvh", max_depth=6, leaf_size=8):
+def build_scene(exported, structure=api.DEFAULTS["structure"], max_depth=api.DEFAULTS["max_depth"],
+                leaf_size=api.DEFAULTS["leaf_size"]):
     """A committed raylab.Scene of the export, and {raylab instance id: object name}."""
     scene = api.Scene(structure=structure, max_depth=max_depth, leaf_size=leaf_size)
     mesh_ids = [scene.add_mesh(vertices, triangles, normals=normals)

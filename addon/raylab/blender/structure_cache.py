@@ -1,11 +1,13 @@
-"""One raylab structure per mesh object, built from the evaluated mesh (modifiers applied).
+"""The raylab.Scene of each Blender scene: its shown mesh objects, what the overlay draws and the probe
+and its fan trace, with the renderer's geometry model (one mesh per object, one instance of it with
+the object's matrix_world, a top level over the instances where the structure has one).
 
-Octree and BVH are built in OBJECT space and kept while only the object's transform changes: the
-overlay and the probe carry them to the world with matrix_world. The exception is 'aabb', which is
-re-computed in WORLD space from the transformed vertices, as VRT does, so that the drawn box is the
-world AABB and the probe tests that same box. A structure is rebuilt only when the key changes:
-(hash of the evaluated mesh, structure, max_depth, leaf_size) and, for 'aabb', the world matrix.
-The mesh is re-read and re-hashed only after the depsgraph reported a geometry change.
+The scene is kept between redraws and changed only where Blender changed: a new transform moves an
+instance (no rebuild), a geometry change replaces that object's mesh (its structure alone is rebuilt),
+other build settings start a new scene. The mesh is re-read and re-hashed only after the depsgraph
+reported a geometry change. One exception to the object-space model: 'aabb' is VRT's box, axis-aligned
+in the WORLD, so its mesh is the object's world-space vertices under an identity instance and is
+replaced when the object moves; the drawn box is then the world AABB and the probe tests that box.
 """
 import hashlib
 
@@ -17,11 +19,13 @@ from .. import api
 from . import properties
 from .mesh_data import mesh_triangles, mesh_vertices
 
+WORLD_ALIGNED = "aabb"  # the one structure kept in world space (see above)
+
 stats = {"structure_builds": 0, "mesh_reads": 0}
 
 _meshes = {}   # object name -> _Mesh
 _dirty = set()  # object names whose evaluated geometry changed since it was read
-_entries = {}  # object name -> Entry
+_models = {}   # Blender scene name -> SceneModel
 
 
 class _Mesh:
@@ -34,16 +38,15 @@ class _Mesh:
 
 
 class Entry:
-    """A built structure (or why it could not be built) and the space its boxes live in."""
+    """One object's structure in the scene model (or why it has none) and the space its boxes live in."""
 
-    __slots__ = ("key", "structure", "space", "error", "vertices", "_boxes")
+    __slots__ = ("key", "structure", "space", "error", "_boxes")
 
-    def __init__(self, key, structure, space, error, vertices):
-        self.key = key
+    def __init__(self, key, structure, space, error):
+        self.key = key              # changes whenever the structure does
         self.structure = structure  # raylab.Structure, or None when `error` says why not
         self.space = space          # 'OBJECT': carry with matrix_world; 'WORLD': already in world space
         self.error = error
-        self.vertices = vertices    # the object-space vertices the structure was built from
         self._boxes = None
 
     def boxes(self):
@@ -54,6 +57,129 @@ class Entry:
     def model_matrix(self, obj):
         """The matrix that carries this structure's boxes and rays' results to the world."""
         return np.identity(4) if self.space == 'WORLD' else matrix_of(obj)
+
+
+class _Part:
+    """An object's mesh in the raylab.Scene: its mesh id, the key it was added with, its entry."""
+
+    __slots__ = ("mesh", "key", "triangle_count", "error", "entry")
+
+    def __init__(self, mesh, key, triangle_count, error=None):
+        self.mesh = mesh
+        self.key = key
+        self.triangle_count = triangle_count
+        self.error = error
+        self.entry = None
+
+
+class SceneModel:
+    """One Blender scene's raylab.Scene and which object is which instance."""
+
+    def __init__(self, settings_key, settings):
+        structure = settings_key[0]
+        self.settings_key = settings_key
+        self.scene = api.Scene(structure=structure, max_depth=settings.max_depth, leaf_size=settings.leaf_size)
+        self.world = structure == WORLD_ALIGNED
+        self.parts = {}       # object name -> _Part
+        self.instances = []   # instance id -> object name
+        self.matrices = []    # instance id -> the matrix bytes it was added or moved with
+        self.stale = 0        # meshes added or replaced since the last commit
+        self.error = None     # why the last commit failed
+        self.committed = False
+
+    def objects(self):
+        """The object names of the instances, in instance order."""
+        return self.instances
+
+    def triangle_count(self):
+        return sum(self.parts[name].triangle_count for name in self.instances)
+
+    def entry(self, name):
+        part = self.parts.get(name)
+        if part is None:
+            return None
+        if part.entry is None:
+            error = part.error or self.error or (None if self.committed else "not built yet")
+            structure = None if error else self.scene.structure(part.mesh)
+            part.entry = Entry(part.key, structure, 'WORLD' if self.world else 'OBJECT', error)
+        return part.entry
+
+    def _update_part(self, obj, mesh, matrix):
+        name = obj.name_full
+        key = (mesh.digest, self.settings_key, matrix.tobytes() if self.world else None)
+        part = self.parts.get(name)
+        if part is not None and part.key == key:
+            return False
+        if len(mesh.triangles) == 0:
+            self.parts[name] = _Part(part.mesh if part else None, key, 0, "the mesh has no faces")
+            return True
+        vertices = transform_points(matrix, mesh.vertices).astype(np.float32) if self.world else mesh.vertices
+        try:
+            if part is None or part.mesh is None:
+                mesh_id = self.scene.add_mesh(vertices, mesh.triangles)
+            else:
+                mesh_id = part.mesh
+                self.scene.replace_mesh(mesh_id, vertices, mesh.triangles)
+            self.parts[name] = _Part(mesh_id, key, len(mesh.triangles))
+            self.stale += 1
+        except ValueError as error:  # e.g. a NaN vertex
+            self.parts[name] = _Part(part.mesh if part else None, key, 0, str(error))
+        return True
+
+    def _set_instances(self, shown):
+        """Instances for `shown` [(name, matrix)], moved where only matrices changed; True if any changed."""
+        names = [name for name, _ in shown]
+        matrices = [m.tobytes() for _, m in shown]
+        if names == self.instances:
+            moved = [i for i, m in enumerate(matrices) if m != self.matrices[i]]
+            try:
+                for i in moved:
+                    self.scene.set_transform(i, shown[i][1])
+                self.matrices = matrices
+                return bool(moved)
+            except ValueError:
+                pass  # a matrix the scene refuses: set the instances again below, without it
+        self.scene.clear_instances()
+        self.instances, self.matrices = [], []
+        for name, matrix in shown:
+            try:
+                self.scene.add_instance(self.parts[name].mesh, matrix)
+            except ValueError as error:  # singular: e.g. scaled to zero
+                self.parts[name].error = f"not traced: {error}"
+                self.parts[name].entry = None
+                continue
+            self.instances.append(name)
+            self.matrices.append(matrix.tobytes())
+        return True
+
+    def update(self, targets, depsgraph):
+        changed = False
+        shown = []
+        for obj in targets:
+            mesh = _mesh_of(obj, depsgraph)
+            matrix = matrix_of(obj)
+            changed |= self._update_part(obj, mesh, matrix)
+            part = self.parts[obj.name_full]
+            if part.error is None or part.error.startswith("not traced"):
+                part.error = None
+                shown.append((obj.name_full, np.identity(4) if self.world else matrix))
+        changed |= self._set_instances(shown)
+        if changed:
+            self._commit()
+
+    def _commit(self):
+        for part in self.parts.values():
+            part.entry = None
+        try:
+            self.scene.commit()
+        except (ValueError, RuntimeError) as error:  # e.g. BuildError over the memory budget
+            self.error = f"{self.settings_key[0]} not built: {error}"
+            self.committed = False
+            return
+        stats["structure_builds"] += self.stale
+        self.stale = 0
+        self.error = None
+        self.committed = True
 
 
 def matrix_of(obj):
@@ -70,9 +196,12 @@ def view_layer_of(scene):
 
 
 def target_objects(scene, view_layer=None):
-    """The mesh objects the overlay draws and the probe tests (scene.raylab.objects)."""
+    """The mesh objects the overlay draws and the probe tests (scene.raylab.objects), without the probe's
+    ray object: it is the ray, not something in its way."""
     view_layer = view_layer or view_layer_of(scene)
-    objects = [o for o in scene.objects if o.type == 'MESH' and o.visible_get(view_layer=view_layer)]
+    ray_object = scene.raylab.probe_object
+    objects = [o for o in scene.objects
+               if o.type == 'MESH' and o != ray_object and o.visible_get(view_layer=view_layer)]
     if scene.raylab.objects == 'SELECTED':
         objects = [o for o in objects if o.select_get(view_layer=view_layer)]
     return objects
@@ -108,35 +237,33 @@ def settings_key(settings):
             settings.leaf_size if properties.uses(structure, "leaf_size") else None)
 
 
+def scene_model(scene, depsgraph=None):
+    """The SceneModel of a Blender scene, brought up to date with its shown objects and settings."""
+    settings = scene.raylab
+    key = settings_key(settings)
+    targets = target_objects(scene)
+    model = _models.get(scene.name_full)
+    # New settings rebuild every structure anyway; objects long gone would keep their meshes.
+    if model is None or model.settings_key != key or len(model.parts) > 2 * len(targets) + 16:
+        model = _models[scene.name_full] = SceneModel(key, settings)
+    model.update(targets, depsgraph)
+    return model
+
+
 def structure_for(obj, settings, depsgraph=None):
-    """The cached Entry of `obj` for the scene's raylab settings, built if the key changed."""
-    mesh = _mesh_of(obj, depsgraph)
-    skey = settings_key(settings)
-    world = skey[0] == "aabb"
-    matrix = matrix_of(obj) if world else None
-    key = (mesh.digest, skey, matrix.tobytes() if world else None)
-    entry = _entries.get(obj.name_full)
-    if entry is not None and entry.key == key:
-        return entry
-    structure, error = None, None
-    if len(mesh.triangles) == 0:
-        error = "the mesh has no faces"
-    else:
-        vertices = transform_points(matrix, mesh.vertices).astype(np.float32) if world else mesh.vertices
-        try:
-            structure = api.build(vertices, mesh.triangles, structure=skey[0],
-                                     max_depth=settings.max_depth, leaf_size=settings.leaf_size)
-            stats["structure_builds"] += 1
-        except (ValueError, RuntimeError) as e:  # e.g. BuildError over the memory budget
-            error = f"{skey[0]} not built: {e}"
-    entry = Entry(key, structure, 'WORLD' if world else 'OBJECT', error, mesh.vertices)
-    _entries[obj.name_full] = entry
+    """The Entry of `obj` in its scene's model for the scene's raylab settings, built if anything changed."""
+    model = scene_model(settings.id_data, depsgraph)
+    entry = model.entry(obj.name_full)
+    if entry is None:
+        return Entry(None, None, 'OBJECT', f"'{obj.name}' is not shown (hidden, not a mesh, or not selected)")
     return entry
 
 
-def cached(obj):
+def cached(obj, scene=None):
     """The Entry last built for `obj`, without building: None if there is none."""
-    return _entries.get(obj.name_full)
+    scene = scene or bpy.context.scene
+    model = _models.get(scene.name_full)
+    return None if model is None else model.entry(obj.name_full)
 
 
 def mark_geometry_changed(depsgraph):
@@ -154,7 +281,7 @@ def mark_geometry_changed(depsgraph):
 def clear():
     _meshes.clear()
     _dirty.clear()
-    _entries.clear()
+    _models.clear()
 
 
 @bpy.app.handlers.persistent

@@ -45,7 +45,7 @@ class RAYLAB_PT_structure(_RaylabPanel, bpy.types.Panel):
         layout.prop(settings, "fade")
         layout.prop(settings, "spin")
         for obj in structure_cache.target_objects(context.scene, context.view_layer):
-            entry = structure_cache.cached(obj)
+            entry = structure_cache.cached(obj, context.scene)
             if entry is not None and entry.error:
                 layout.label(text=f"{obj.name}: {entry.error}", icon='ERROR')
             elif entry is not None:
