@@ -69,6 +69,17 @@ inline py::array_t<float> rows(const std::vector<glm::vec3>& points) {
     for (int c = 0; c < 3; ++c) p[3 * i + c] = points[i][c];
   return a;
 }
+// The boxes' corners as d["lo"] and d["hi"], (N,3) each: items have a `bounds`.
+template <class Item>
+void put_bounds(py::dict& d, const std::vector<Item>& items) {
+  std::vector<glm::vec3> lo, hi;
+  for (const Item& item : items) {
+    lo.push_back(item.bounds.lo);
+    hi.push_back(item.bounds.hi);
+  }
+  d["lo"] = rows(lo);
+  d["hi"] = rows(hi);
+}
 template <class T, class Item, class Field>
 py::array_t<T> column(const std::vector<Item>& items, Field field) {
   py::array_t<T> a(py::ssize_t(items.size()));
@@ -81,19 +92,6 @@ py::dict story_to_dict(const RayStory& story);
 py::dict scene_story_to_dict(const SceneStory& story, const SceneSnapshot& scene);
 py::dict statuses_to_dict(const std::vector<Hit>& hits, const std::vector<RayStatus>& statuses, bool single_instance);
 
-// A batch of closest hits with statuses: `trace(rays, hits, statuses)` runs with the GIL released.
-template <class Trace>
-py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
-                       bool single_instance, Trace trace) {
-  const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  std::vector<Hit> hits(rays.size());
-  std::vector<RayStatus> status(rays.size());
-  {
-    py::gil_scoped_release release;
-    trace(rays, hits, status);
-  }
-  return statuses_to_dict(hits, status, single_instance);
-}
 
 
 // A batch query: rays from the arrays, `trace(rays, results, stats)` with the GIL released while both
@@ -125,6 +123,20 @@ py::dict intersect_rays(const Target& target, py::handle origins, py::handle dir
         intersect_closest(target, rays, hits, stats);
       },
       [](const std::vector<Hit>& hits) { return hits_to_dict(hits, std::is_same_v<Target, Structure>); });
+}
+
+// Closest hits with each ray's status: `trace(rays, hits, statuses)` is a structure's or a scene's.
+template <class Trace>
+py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
+                       bool single_instance, Trace trace) {
+  std::vector<RayStatus> statuses;
+  return trace_arrays<Hit>(
+      origins, directions, tmin, tmax, py::bool_(false),
+      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats*) {
+        statuses.resize(rays.size());
+        trace(rays, hits, statuses);
+      },
+      [&](const std::vector<Hit>& hits) { return statuses_to_dict(hits, statuses, single_instance); });
 }
 
 template <class Target>

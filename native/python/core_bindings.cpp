@@ -49,14 +49,8 @@ py::tuple mesh_to_arrays(const TriangleMesh& mesh) {
 
 py::dict boxes(const Structure& s) {
   const std::vector<BoxInfo> b = s.boxes();
-  std::vector<glm::vec3> lo, hi;
-  for (const BoxInfo& box : b) {
-    lo.push_back(box.bounds.lo);
-    hi.push_back(box.bounds.hi);
-  }
   py::dict d;
-  d["lo"] = rows(lo);
-  d["hi"] = rows(hi);
+  put_bounds(d, b);
   d["depth"] = column<int32_t>(b, [](const BoxInfo& x) { return x.depth; });
   d["leaf"] = column<bool>(b, [](const BoxInfo& x) { return x.leaf; });
   d["triangle_count"] = column<uint32_t>(b, [](const BoxInfo& x) { return x.triangle_count; });

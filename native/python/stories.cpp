@@ -9,14 +9,8 @@ namespace raylab::python {
 namespace {
 
 py::dict boxes_to_dict(const std::vector<StoryBox>& boxes) {
-  std::vector<glm::vec3> lo, hi;
-  for (const StoryBox& b : boxes) {
-    lo.push_back(b.bounds.lo);
-    hi.push_back(b.bounds.hi);
-  }
   py::dict d;
-  d["lo"] = rows(lo);
-  d["hi"] = rows(hi);
+  put_bounds(d, boxes);
   d["depth"] = column<int32_t>(boxes, [](const StoryBox& b) { return b.depth; });
   d["hit"] = column<bool>(boxes, [](const StoryBox& b) { return b.hit; });
   d["t_entry"] = column<float>(boxes, [](const StoryBox& b) { return b.hit ? b.t_entry : kInfinity; });

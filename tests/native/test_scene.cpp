@@ -1,3 +1,5 @@
+#include "support.h"
+
 #include "raylab/mesh_io.h"
 #include "raylab/scene.h"
 
@@ -13,12 +15,9 @@
 #include <thread>
 
 using namespace raylab;
+using namespace raylab::test;
 
 namespace {
-
-MeshPtr load(const char* name) {
-  return std::make_shared<const TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/" + name));
-}
 
 MeshPtr unit_square() {  // two triangles in z = 0 covering [0,1]^2
   auto mesh = std::make_shared<TriangleMesh>();
@@ -29,13 +28,6 @@ MeshPtr unit_square() {  // two triangles in z = 0 covering [0,1]^2
 
 glm::mat4 translation(float x, float y, float z) { return glm::translate(glm::mat4(1.0f), {x, y, z}); }
 
-Ray ray_from(glm::vec3 origin, glm::vec3 direction) {
-  Ray r;
-  r.origin = origin;
-  r.direction = direction;
-  return r;
-}
-
 }  // namespace
 
 TEST(Scene, EmptySceneMissesEveryRay) {
@@ -43,8 +35,8 @@ TEST(Scene, EmptySceneMissesEveryRay) {
   scene.commit();
   Hit h;
   TraversalStats stats;
-  EXPECT_FALSE(scene.closest(ray_from({0, 0, 0}, {0, 0, 1}), h, &stats));
-  EXPECT_FALSE(scene.any(ray_from({0, 0, 0}, {1, 0, 0})));
+  EXPECT_FALSE(scene.closest(ray_of({0, 0, 0}, {0, 0, 1}), h, &stats));
+  EXPECT_FALSE(scene.any(ray_of({0, 0, 0}, {1, 0, 0})));
   EXPECT_EQ(stats.rays, 1u);
   EXPECT_EQ(stats.rays_ignored, 1u);
 }
@@ -67,9 +59,9 @@ TEST(Scene, RejectsUnknownIdsAndBadTransforms) {
   EXPECT_THROW(scene.add_mesh(broken), std::invalid_argument);
   // A query on a scene changed since its last commit is refused rather than answered from stale data.
   Hit h;
-  EXPECT_THROW(scene.closest(ray_from({0.5f, 0.5f, 1}, {0, 0, -1}), h), std::logic_error);
+  EXPECT_THROW(scene.closest(ray_of({0.5f, 0.5f, 1}, {0, 0, -1}), h), std::logic_error);
   scene.commit();
-  EXPECT_TRUE(scene.closest(ray_from({0.5f, 0.5f, 1}, {0, 0, -1}), h));
+  EXPECT_TRUE(scene.closest(ray_of({0.5f, 0.5f, 1}, {0, 0, -1}), h));
 }
 
 TEST(Scene, RotatedAndScaledInstanceGivesWorldDistance) {
@@ -82,15 +74,15 @@ TEST(Scene, RotatedAndScaledInstanceGivesWorldDistance) {
   scene.commit();
   Hit h;
   // The square now spans y in [0,3], z in [-3,0] at x = 10; a direction of length 2 halves t.
-  ASSERT_TRUE(scene.closest(ray_from({0, 1, -1}, {2, 0, 0}), h));
+  ASSERT_TRUE(scene.closest(ray_of({0, 1, -1}, {2, 0, 0}), h));
   EXPECT_NEAR(h.t, 5.0f, 1e-5f);
   EXPECT_EQ(h.instance, 0u);
   EXPECT_EQ(scene.instance(0).material, 7u);
-  EXPECT_FALSE(scene.closest(ray_from({0, 1, 1}, {1, 0, 0}), h));  // beside it
+  EXPECT_FALSE(scene.closest(ray_of({0, 1, 1}, {1, 0, 0}), h));  // beside it
 }
 
 TEST(Scene, InstancesShareOneStructurePerMesh) {
-  const MeshPtr mesh = load("bunny.obj");
+  const MeshPtr mesh = shipped("bunny.obj");
   Scene one, many;
   one.add_instance(one.add_mesh(mesh), glm::mat4(1.0f));
   const uint32_t m = many.add_mesh(mesh);
@@ -108,7 +100,7 @@ TEST(Scene, InstancesShareOneStructurePerMesh) {
 TEST(Scene, OnlyWhatChangedIsRebuilt) {
   Scene scene;
   const uint32_t a = scene.add_mesh(unit_square());
-  const uint32_t b = scene.add_mesh(load("sphere.obj"));
+  const uint32_t b = scene.add_mesh(shipped("sphere.obj"));
   const uint32_t ia = scene.add_instance(a, glm::mat4(1.0f));
   scene.add_instance(b, translation(5, 0, 0));
   scene.commit();
@@ -121,11 +113,11 @@ TEST(Scene, OnlyWhatChangedIsRebuilt) {
   EXPECT_EQ(&scene.structure(a), sa);
   EXPECT_EQ(&scene.structure(b), sb);
   Hit h;
-  ASSERT_TRUE(scene.closest(ray_from({0.5f, 0.5f, 1}, {0, 0, -1}), h));
+  ASSERT_TRUE(scene.closest(ray_of({0.5f, 0.5f, 1}, {0, 0, -1}), h));
   EXPECT_FLOAT_EQ(h.t, 5.0f);
 
   // Replacing a mesh rebuilds its own structure alone.
-  const MeshPtr replacement = load("teapot.obj");
+  const MeshPtr replacement = shipped("teapot.obj");
   scene.replace_mesh(b, replacement);
   scene.commit();
   EXPECT_EQ(&scene.structure(a), sa);
@@ -141,7 +133,7 @@ TEST(Scene, OnlyWhatChangedIsRebuilt) {
 }
 
 TEST(Scene, InstanceHitsEqualBruteForceOnTransformedVertices) {
-  const MeshPtr mesh = load("spot_low_resolution.obj");
+  const MeshPtr mesh = shipped("spot_low_resolution.obj");
   Scene scene;
   const uint32_t m = scene.add_mesh(mesh);
   const std::vector<glm::mat4> transforms = {
@@ -203,11 +195,11 @@ TEST(Scene, InstanceHitsEqualBruteForceOnTransformedVertices) {
 
 TEST(Scene, CountsTheTopLevelWithTheMeshStructure) {
   Scene scene;
-  const uint32_t m = scene.add_mesh(load("bunny.obj"));
+  const uint32_t m = scene.add_mesh(shipped("bunny.obj"));
   scene.add_instance(m, glm::mat4(1.0f));
   scene.commit();
   const Bounds box = scene.bounds();
-  const Ray ray = ray_from(box.center() - glm::vec3(0, 0, 2 * box.extent().z), {0, 0, 1});
+  const Ray ray = ray_of(box.center() - glm::vec3(0, 0, 2 * box.extent().z), {0, 0, 1});
   TraversalStats scene_stats, mesh_stats;
   Hit a, b;
   ASSERT_TRUE(scene.closest(ray, a, &scene_stats));
@@ -234,9 +226,9 @@ TEST(Scene, RaysIgnoredAreRaysThatEnterNoObject) {
     scene.commit();
     TraversalStats stats;
     Hit h;
-    EXPECT_TRUE(scene.closest(ray_from({0.5f, 0.5f, 1}, {0, 0, -1}), h, &stats));  // hits the first square
-    EXPECT_FALSE(scene.closest(ray_from({3, 0.5f, 1}, {0, 0, -1}), h, &stats));    // between the two
-    EXPECT_FALSE(scene.any(ray_from({3, 0.5f, 1}, {0, 0, -1}), &stats));
+    EXPECT_TRUE(scene.closest(ray_of({0.5f, 0.5f, 1}, {0, 0, -1}), h, &stats));  // hits the first square
+    EXPECT_FALSE(scene.closest(ray_of({3, 0.5f, 1}, {0, 0, -1}), h, &stats));    // between the two
+    EXPECT_FALSE(scene.any(ray_of({3, 0.5f, 1}, {0, 0, -1}), &stats));
     EXPECT_EQ(stats.rays, 3u);
     if (kind == StructureKind::None) {
       EXPECT_EQ(stats.rays_ignored, 0u);  // brute force ignores nothing...
@@ -254,7 +246,7 @@ TEST(Scene, StoryTellsWhatClosestDid) {
     BuildSettings settings;
     settings.kind = info.kind;
     Scene scene(settings);
-    const uint32_t m = scene.add_mesh(load("bunny.obj"));
+    const uint32_t m = scene.add_mesh(shipped("bunny.obj"));
     scene.add_instance(m, glm::mat4(1.0f));
     scene.add_instance(m, glm::rotate(translation(0.1f, 0, 0), 0.7f, glm::vec3(0, 1, 0)));
     scene.commit();
@@ -265,7 +257,7 @@ TEST(Scene, StoryTellsWhatClosestDid) {
     for (int i = 0; i < 200; ++i) {
       const glm::vec3 origin = box.center() + 2.0f * box.extent() * glm::vec3(unit(rng), unit(rng), unit(rng));
       const glm::vec3 target = box.center() + 0.6f * box.extent() * glm::vec3(unit(rng), unit(rng), unit(rng));
-      const Ray ray = ray_from(origin, target - origin);
+      const Ray ray = ray_of(origin, target - origin);
       TraversalStats stats;
       Hit h;
       const bool found = scene.closest(ray, h, &stats);
@@ -303,7 +295,7 @@ std::vector<Ray> rays_through(std::span<const glm::vec2> centres, std::span<cons
   std::vector<Ray> rays;
   for (int copy = 0; copy < copies; ++copy)
     for (const glm::vec2 c : centres)
-      for (const glm::vec2 o : offsets) rays.push_back(ray_from({c.x + o.x, c.y + o.y, -10}, {0, 0, 1}));
+      for (const glm::vec2 o : offsets) rays.push_back(ray_of({c.x + o.x, c.y + o.y, -10}, {0, 0, 1}));
   return rays;
 }
 
@@ -389,7 +381,7 @@ int queries_failed_during(Change change, Query query, int most_changes = std::nu
 }  // namespace
 
 TEST(SceneThreads, QueriesDuringMovesAndCommitsSeeTheOldOrTheNewStateWhole) {
-  const MeshPtr sphere = load("sphere.obj");
+  const MeshPtr sphere = shipped("sphere.obj");
   const glm::mat4 old_place = glm::mat4(1.0f), new_place = translation(100, 0, 0), still = translation(3, 0, 0);
   Scene scene;
   const uint32_t m = scene.add_mesh(sphere);
@@ -413,7 +405,7 @@ TEST(SceneThreads, QueriesDuringMovesAndCommitsSeeTheOldOrTheNewStateWhole) {
 }
 
 TEST(SceneThreads, QueriesDuringMeshReplacementsSeeTheOldOrTheNewStateWhole) {
-  const MeshPtr sphere = load("sphere.obj");
+  const MeshPtr sphere = shipped("sphere.obj");
   auto half = std::make_shared<TriangleMesh>(*sphere);
   for (glm::vec3& v : half->vertices) v *= 0.5f;  // t along the axis: 9.5 instead of 9
   const MeshPtr small = half;
@@ -444,7 +436,7 @@ TEST(SceneThreads, QueriesDuringMeshReplacementsSeeTheOldOrTheNewStateWhole) {
 }
 
 TEST(SceneThreads, QueriesDuringAddedInstancesSeeTheFirstNOfOneState) {
-  const MeshPtr sphere = load("sphere.obj");
+  const MeshPtr sphere = shipped("sphere.obj");
   Scene scene;
   const uint32_t m = scene.add_mesh(sphere);
   scene.add_instance(m, glm::mat4(1.0f));
@@ -492,7 +484,7 @@ TEST(SceneThreads, AThreadThatChangedTheSceneMustCommitOthersSeeTheLastCommit) {
   scene.commit();
   const SceneSnapshotPtr before = scene.snapshot();
   scene.set_transform(0, translation(0, 0, -4));  // not committed
-  const Ray ray = ray_from({0.5f, 0.5f, 1}, {0, 0, -1});
+  const Ray ray = ray_of({0.5f, 0.5f, 1}, {0, 0, -1});
   Hit h;
   EXPECT_THROW(scene.closest(ray, h), std::logic_error);  // it would not see its own change
   float t_elsewhere = 0.0f;
