@@ -126,7 +126,7 @@ def test_octree_1_ticks_the_depth_task_and_keeps_the_order():
 
 
 def aim(ray, origin, direction):
-    ray.matrix_world = Matrix.Translation(origin) @ Vector(direction).to_track_quat('-Z', 'Y').to_matrix().to_4x4()
+    ray.matrix_world = probe.aim_matrix(origin, direction)
     bpy.context.view_layer.update()
 
 

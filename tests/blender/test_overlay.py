@@ -111,6 +111,9 @@ def test_filters_pick_depths_and_leaves(monkey_scene):
     assert all(a > b for a, b in zip(alpha_by_depth, alpha_by_depth[1:]))  # fade: deeper is fainter
     settings.fade = False
     assert np.all(overlay.line_geometry(monkey, scene).colors[:, 3] == 1.0)
+    settings.probe_enabled = True  # the probe's path must stand out: the boxes fade behind it
+    assert np.allclose(overlay.line_geometry(monkey, scene).colors[:, 3], overlay.PROBE_DIM)
+    settings.probe_enabled = False
 
 
 def test_selected_objects_only(monkey_scene):

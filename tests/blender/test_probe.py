@@ -52,8 +52,7 @@ def aim(ray_object, torus, origin, direction):
     """Places the ray object so its ray is the torus-space ray (origin, direction)."""
     m = torus.matrix_world
     world_direction = (m.to_3x3() @ Vector(direction)).normalized()
-    rotation = world_direction.to_track_quat('-Z', 'Y').to_matrix().to_4x4()
-    ray_object.matrix_world = Matrix.Translation(m @ Vector(origin)) @ rotation
+    ray_object.matrix_world = probe.aim_matrix(m @ Vector(origin), world_direction)
     bpy.context.view_layer.update()
 
 
@@ -90,7 +89,7 @@ def test_probe_tells_the_cores_story(torus_scene, case):
         # Blender agrees on where the ray meets the torus.
         found, location, *_ = scene.ray_cast(bpy.context.evaluated_depsgraph_get(),
                                              ray.matrix_world.translation,
-                                             ray.matrix_world.to_3x3() @ Vector((0, 0, -1)))
+                                             ray.matrix_world.to_3x3() @ Vector(probe.RAY_AXIS))
         assert found and (location - Vector(result["hit_point"])).length < 1e-3
     else:
         assert result["hit_point"] is None
@@ -142,6 +141,22 @@ def test_a_large_fan_classifies_as_the_story_does(torus_scene):
     expected = [traced.story(o, d).status for o, d in zip(origins, directions)]
     assert list(fan[2]) == expected
     assert len(set(expected)) >= 3  # the fan shows several cases, not one
+    assert list(fan[3]) == list(range(144))  # a small fan: every ray is drawn as a line
+
+
+def test_a_dense_fan_draws_a_sample_of_lines_and_every_end(torus_scene):
+    """A 64×64 fan would cover the view with lines: it draws at most FAN_LINES_DRAWN of them, spread
+    over the whole fan, while every ray keeps its status and its end point (drawn as a dot)."""
+    scene, torus, ray = torus_scene
+    aim(ray, torus, (0.9, -4.0, 0.9), (0.0, 1.0, -0.2))
+    settings = scene.raylab
+    settings.fan_enabled, settings.fan_size = True, 64
+    origins, ends, statuses, lines = probe.probe_result(scene).fan
+    assert len(origins) == len(ends) == len(statuses) == 64 * 64
+    assert 100 <= len(lines) <= probe.FAN_LINES_DRAWN and len(set(lines)) == len(lines)
+    rows, columns = np.divmod(lines, 64)
+    assert rows.min() == columns.min() == 0 and rows.max() >= 56 and columns.max() >= 56  # corner to corner
+    assert len(set(statuses[lines])) >= 3  # the sample still shows the cases
 
 
 def test_camera_pixel_ray(torus_scene):

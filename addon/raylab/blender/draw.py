@@ -65,9 +65,10 @@ def draw_segments(starts, ends, colors, xray, width):
 
 
 def draw_points(points, color, xray, size):
-    """World-space points (N,3) in one RGBA colour, `size` pixels across."""
+    """World-space points (N,3) in one RGBA colour, or (N,4) colours one each, `size` pixels across."""
     if len(points) == 0:
         return
     positions = np.ascontiguousarray(points, dtype=np.float32)
-    colors = np.tile(np.asarray(color, dtype=np.float32), (len(points), 1))
+    color = np.asarray(color, dtype=np.float32)
+    colors = np.ascontiguousarray(color if color.ndim == 2 else np.tile(color, (len(points), 1)))
     draw_batch(make_batch('POINTS', positions, colors), np.identity(4), xray, point_size=size)

@@ -21,6 +21,10 @@ DEPTH_PALETTE = np.array([
     (0.80, 0.55, 0.35),
 ], dtype=np.float32)
 
+# While the probe is on, the boxes are drawn this faint, so that the probe's path stands out.
+PROBE_DIM = 0.3
+
+
 class LineGeometry:
     """Box wireframe arrays ready for a GPU batch; the batch itself is made lazily when drawing
     (the gpu module is unavailable in background mode)."""
@@ -48,7 +52,7 @@ def fade_alpha(depth, box_count):
 
 def filter_key(settings):
     return (settings.depth_min, settings.depth_max, settings.leaves_only, settings.color_by_depth,
-            settings.fade, tuple(round(c, 4) for c in settings.line_color))
+            settings.fade, tuple(round(c, 4) for c in settings.line_color), settings.probe_enabled)
 
 
 def selected_boxes(boxes, settings):
@@ -70,6 +74,8 @@ def box_colors(depth, settings):
         rgba = np.tile(np.asarray(settings.line_color, dtype=np.float32), (len(depth), 1))
     if settings.fade:
         rgba[:, 3] *= fade_alpha(depth, len(depth))
+    if settings.probe_enabled:
+        rgba[:, 3] *= PROBE_DIM
     return rgba
 
 

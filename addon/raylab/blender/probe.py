@@ -15,7 +15,7 @@ import math
 
 import bpy
 import numpy as np
-from mathutils import Matrix
+from mathutils import Matrix, Vector
 
 from .. import api
 from . import draw, scene_export, structure_cache
@@ -32,7 +32,17 @@ MISSED_BOX_COLOR = (1.0, 0.3, 0.25, 0.55)
 ENTRY_COLOR = (1.0, 1.0, 1.0, 1.0)
 HIT_COLOR = (1.0, 0.15, 0.55, 1.0)
 TEXT_COLOR = (0.92, 0.92, 0.92, 1.0)
-FAN_OBJECT_HALF_ANGLE = math.radians(20.0)  # the ray object's fan: a 40° pyramid around its -Z axis
+FAN_OBJECT_HALF_ANGLE = math.radians(20.0)  # the ray object's fan: a 40° pyramid around its +Z axis
+# A fan with more rays than this draws lines for an even sample of them, and a dot where every ray
+# ends (a density that stays readable): a 64×64 fan of lines would cover the whole view.
+FAN_LINES_DRAWN = 256
+# The ray leaves the ray object's origin along its local +Z: where its Single Arrow points.
+RAY_AXIS = (0.0, 0.0, 1.0)
+
+
+def aim_matrix(origin, direction):
+    """The ray object's matrix_world for a ray from `origin` along `direction` (world space)."""
+    return Matrix.Translation(origin) @ Vector(direction).to_track_quat('Z', 'Y').to_matrix().to_4x4()
 
 
 def status_message(story, structure):
@@ -75,13 +85,13 @@ def _object_rays(obj, directions_local):
     directions = directions_local @ matrix[:3, :3].T
     lengths = np.linalg.norm(directions, axis=1, keepdims=True)
     if not np.all(lengths > 0):
-        return None, None, f"The ray object '{obj.name}' is scaled to zero: its -Z axis points nowhere"
+        return None, None, f"The ray object '{obj.name}' is scaled to zero: its +Z axis points nowhere"
     return np.tile(matrix[:3, 3], (len(directions), 1)), directions / lengths, None
 
 
 def probe_rays(scene, fan=False):
     """World rays of the probe: (origins, directions, None), or (None, None, why not). With fan=True
-    the N×N fan: the camera's whole frame, or a pyramid around the ray object's -Z axis."""
+    the N×N fan: the camera's whole frame, or a pyramid around the ray object's +Z axis."""
     settings = scene.raylab
     n = settings.fan_size
     grid = (np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2) + 0.5) / n
@@ -99,9 +109,9 @@ def probe_rays(scene, fan=False):
         return None, None, "No ray object: pick one, or add one with the button"
     if fan:
         spread = math.tan(FAN_OBJECT_HALF_ANGLE) * (2.0 * grid - 1.0)
-        local = np.concatenate([spread, -np.ones((len(grid), 1))], axis=1)
+        local = np.concatenate([spread, np.ones((len(grid), 1))], axis=1)
     else:
-        local = np.array([[0.0, 0.0, -1.0]])
+        local = np.array([RAY_AXIS])
     return _object_rays(obj, local)
 
 
@@ -115,7 +125,7 @@ class ProbeResult:
         self.public = public
         self.text = text
         self.drawing = drawing  # dict of world/object-space arrays, see _drawing()
-        self.fan = fan          # (origins, ends, statuses) in world space
+        self.fan = fan          # (origins, ends, statuses, indices of the rays drawn as lines), world space
 
 
 def _empty_public():
@@ -164,7 +174,7 @@ def probe_result(scene, depsgraph=None):
                 f"boxes tested {public['boxes_tested']}, nodes visited {public['nodes_visited']}"]
         fan_drawing = None
         if fan[0] is not None:
-            fan_drawing, fan_counts = _trace_fan(model.scene, fan, settings.probe_length)
+            fan_drawing, fan_counts = _trace_fan(model.scene, fan, settings.probe_length, settings.fan_size)
             text.append("fan: " + ", ".join(f"{fan_counts[s]} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
         length = story.hit["t"] if story.hit is not None else settings.probe_length
         result = ProbeResult(key, public, text + errors, _drawing(story, origins[0], directions[0], length), fan_drawing)
@@ -172,16 +182,24 @@ def probe_result(scene, depsgraph=None):
     return result
 
 
-def _trace_fan(traced_scene, fan, length):
+def fan_lines(side):
+    """Indices of the rays of a side×side fan drawn as lines: every k-th row and column, so that at most
+    FAN_LINES_DRAWN are (all of them in a small fan)."""
+    stride = max(1, math.ceil(side / math.isqrt(FAN_LINES_DRAWN)))
+    kept = np.arange(0, side, stride)
+    return (kept[:, None] * side + kept[None, :]).ravel()
+
+
+def _trace_fan(traced_scene, fan, length, side):
     """The fan's rays in world space, ending at their hits (or after `length`), with the statuses the
-    scene's stories would give them, and how many rays have each status."""
+    scene's stories would give them, the rays drawn as lines, and how many rays have each status."""
     origins, directions, _ = fan
     result = traced_scene.statuses(origins, directions)
     codes = result.status.astype(int)
     t = result.t.astype(np.float64)
     ends = origins + np.where(np.isfinite(t), t, length)[:, None] * directions
     counts = {s: int(np.sum(codes == i)) for i, s in enumerate(STATUSES)}
-    return (origins, ends, np.array(STATUSES)[codes]), counts
+    return (origins, ends, np.array(STATUSES)[codes], fan_lines(side)), counts
 
 
 def _drawing(story, origin, direction, length):
@@ -233,21 +251,25 @@ def _draw_view():
     result = probe_result(scene, context.evaluated_depsgraph_get())
     xray = settings.xray
     if result.fan is not None:
-        origins, ends, statuses = result.fan
+        origins, ends, statuses, lines = result.fan
         colors = np.array([STATUS_COLORS[s] for s in statuses], dtype=np.float32)
         colors[:, 3] = 0.7
-        draw.draw_segments(origins, ends, colors, xray, 1.0)
+        draw.draw_segments(origins[lines], ends[lines], colors[lines], xray, 1.0)
+        if len(lines) < len(origins):
+            draw.draw_points(ends, colors, xray, 3.0)
     drawing = result.drawing
     if drawing is None:
         return
+    # The probe's own path is drawn over everything (as X-ray does), and the structure overlay is
+    # dimmed meanwhile (overlay.PROBE_DIM), so the visited boxes stand out of a dense octree.
     for _, model, visited_lo, visited_hi, missed_lo, missed_hi in drawing["boxes"]:
         _draw_boxes(missed_lo, missed_hi, MISSED_BOX_COLOR, model, xray, 1.5)
-        _draw_boxes(visited_lo, visited_hi, VISITED_COLOR, model, xray, 3.0)
+        _draw_boxes(visited_lo, visited_hi, VISITED_COLOR, model, True, 3.0)
     start, end = drawing["ray"]
     color = np.array([STATUS_COLORS[result.public["status"]]], dtype=np.float32)
-    draw.draw_segments(start[None], end[None], color, xray, 3.0)
-    draw.draw_points(drawing["entries"], ENTRY_COLOR, xray, 7.0)
-    draw.draw_points(drawing["hits"], HIT_COLOR, xray, 12.0)
+    draw.draw_segments(start[None], end[None], color, True, 3.0)
+    draw.draw_points(drawing["entries"], ENTRY_COLOR, True, 7.0)
+    draw.draw_points(drawing["hits"], HIT_COLOR, True, 12.0)
 
 
 def _draw_boxes(lo, hi, color, model, xray, width):
@@ -294,7 +316,7 @@ PROBE_OBJECT_NAME = "raylab ray"
 
 def ensure_probe_object(scene):
     """The scene's ray object (scene.raylab.probe_object), created if missing: an Empty drawn as a
-    single arrow named "raylab ray". The ray leaves its origin along its local -Z axis; a new one is
+    single arrow named "raylab ray". The ray leaves its origin along its local +Z axis, the arrow; a new one is
     placed in front of the shown meshes (along -Y) aiming at their centre."""
     settings = scene.raylab
     if settings.probe_object is not None and settings.probe_object.name in scene.objects:
@@ -306,8 +328,7 @@ def ensure_probe_object(scene):
         scene.collection.objects.link(obj)
         centre, radius = _targets_sphere(scene)
         # Set as matrix_world so the probe sees the new place before the depsgraph re-evaluates.
-        obj.matrix_world = (Matrix.Translation((centre[0], centre[1] - 3.0 * radius, centre[2]))
-                            @ Matrix.Rotation(math.pi / 2, 4, 'X'))  # local -Z onto world +Y
+        obj.matrix_world = aim_matrix((centre[0], centre[1] - 3.0 * radius, centre[2]), (0.0, 1.0, 0.0))
         obj.empty_display_size = radius
     settings.probe_object = obj
     return obj
@@ -324,7 +345,7 @@ def _targets_sphere(scene):
 
 
 class RAYLAB_OT_probe_add(bpy.types.Operator):
-    """Add the ray object (an Empty "raylab ray"; the ray leaves along its local -Z) and turn the probe on"""
+    """Add the ray object (an Empty "raylab ray"; the ray leaves along its arrow, local +Z) and turn the probe on"""
     bl_idname = "raylab.probe_add"
     bl_label = "Add Ray Object"
     bl_options = {'REGISTER', 'UNDO'}

@@ -96,13 +96,12 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     probe_enabled: BoolProperty(name="Ray probe", default=False, update=_redraw,
                                 description="Trace one ray through the structure and show its story")
     probe_source: EnumProperty(name="Source", default="OBJECT", update=_redraw, items=[
-        ("OBJECT", "Object", "From the probe object's origin along its local -Z axis (as lights and cameras)"),
+        ("OBJECT", "Object", "From the ray object's origin along its local +Z axis, where its arrow points"),
         ("CAMERA", "Camera", "From the scene camera through the chosen pixel"),
     ])
     probe_object: PointerProperty(name="Ray object", type=bpy.types.Object, update=_redraw,
                                   description="The ray starts at this object's origin and goes along its "
-                                              "local -Z axis (an Empty 'Single Arrow' points along +Z: "
-                                              "the ray leaves from its base, opposite to the arrow)")
+                                              "local +Z axis, where an Empty 'Single Arrow' points")
     probe_pixel_x: IntProperty(name="Pixel X", min=0, default=960, update=_redraw,
                                description="Camera source: the pixel column, from the left")
     probe_pixel_y: IntProperty(name="Pixel Y", min=0, default=540, update=_redraw,

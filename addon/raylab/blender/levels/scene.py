@@ -117,8 +117,8 @@ def _place_probe(scene, level):
     ray = probe.ensure_probe_object(scene)
     s = level.scene_scale
     if isinstance(level.probe, dict) and "location" in level.probe:
-        ray.matrix_world = _look_at(Vector(level.probe["location"]) * s,
-                                    Vector(level.probe.get("target", (0.0, 0.0, 0.0))) * s)
+        location = Vector(level.probe["location"]) * s
+        ray.matrix_world = probe.aim_matrix(location, Vector(level.probe.get("target", (0.0, 0.0, 0.0))) * s - location)
     ray.empty_display_size = 0.5 * s
     return ray
 
