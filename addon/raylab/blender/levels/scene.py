@@ -206,6 +206,12 @@ def open_level(context, level_id, root=None):
         if previous != scene and state(previous) is not None:
             _remove_scene(previous)
     _drop_name_suffixes(scene)
+    # Deleting the previous level's objects and scene copies the shown scene's evaluated objects again
+    # without re-evaluating their transforms, and Blender 3.4 then drew the level mesh black (as if its
+    # normals were lost) until it moved. Re-evaluating the transforms, what a move does, shades it; a
+    # geometry update does not (tests/gui/test_level_switch_gui.py).
+    for obj in scene.objects:
+        obj.update_tag(refresh={'OBJECT'})
     _take_snapshots(scene, level, 0)
     check_tasks(scene)
     return scene
