@@ -181,14 +181,22 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
     bl_label = "Compare Structures"
     bl_options = {'REGISTER', 'UNDO'}
 
+    time_limit: bpy.props.FloatProperty(
+        name="Time Limit", default=-1.0, min=-1.0, options={'SKIP_SAVE', 'HIDDEN'},
+        description="Skip a structure whose render is estimated to take longer, in seconds (0: no limit; "
+                    "-1: the limit in the add-on's Preferences)")
+
     @classmethod
     def poll(cls, context):
         return _running is None
 
+    def _new_job(self, context):
+        return new_job(context, None if self.time_limit < 0.0 else self.time_limit)
+
     def execute(self, context):
-        """From a script: the whole comparison before returning (the Preferences' limit still applies)."""
+        """From a script: the whole comparison before returning (the time limit still applies)."""
         try:
-            job = new_job(context)
+            job = self._new_job(context)
         except ValueError as error:
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
@@ -198,11 +206,12 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
     def invoke(self, context, event):
         global _running
         try:
-            job = new_job(context)
+            job = self._new_job(context)
         except ValueError as error:
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
-        self._job, self._reported, self._scene = job, 0, context.scene
+        # A name: an undo during the job replaces the scene's Python object.
+        self._job, self._reported, self._scene = job, 0, context.scene.name
         wm = context.window_manager
         self._timer = wm.event_timer_add(POLL_SECONDS, window=context.window)
         wm.modal_handler_add(self)
@@ -230,7 +239,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
         if job.cancelled:
             self.report({'INFO'}, "raylab: comparison cancelled; the previous one is kept")
             return {'CANCELLED'}
-        if context.scene != self._scene:
+        if context.scene.name != self._scene:
             self.report({'WARNING'}, "raylab: the scene changed during the comparison; nothing stored")
             return {'CANCELLED'}
         return self._finish(context, job)
@@ -283,8 +292,8 @@ def _tag_sidebar(context):
                         region.tag_redraw()
 
 
-def _progress_factor(_self):
-    return _running.fraction if _running is not None else 0.0
+def _progress_percent(_self):
+    return 100.0 * _running.fraction if _running is not None else 0.0
 
 
 class RAYLAB_PT_comparison(bpy.types.Panel):
@@ -336,7 +345,7 @@ def register():
         bpy.utils.register_class(cls)
     # Read-only (a getter only): the panel draws it as a progress bar.
     bpy.types.WindowManager.raylab_compare_progress = bpy.props.FloatProperty(
-        name="Comparison Progress", subtype='FACTOR', min=0.0, max=1.0, get=_progress_factor,
+        name="Comparison Progress", subtype='PERCENTAGE', min=0.0, max=100.0, precision=0, get=_progress_percent,
         description="How much of Compare Structures is done")
 
 
