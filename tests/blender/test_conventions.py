@@ -142,3 +142,22 @@ def test_the_overlay_is_off_in_a_new_user_scene_and_on_in_levels():
     finally:
         bpy.data.scenes.remove(scene)
     assert levels.open_level(bpy.context, "aabb_1").raylab.show is True
+
+
+def test_the_preference_turns_the_overlay_on_in_opened_files(monkeypatch):
+    """The load_post handler: scenes that never had the overlay switched get the preferred default; a
+    scene where the user switched it keeps their choice."""
+    untouched = bpy.data.scenes.new("never switched")
+    switched = bpy.data.scenes.new("switched off")
+    switched.raylab.show = False
+    unset = [s for s in bpy.data.scenes if not s.raylab.is_property_set("show")]
+    try:
+        monkeypatch.setattr(preferences, "settings", lambda context=None: type(
+            "Prefs", (), dict(preferences.DEFAULTS, overlay_in_user_files=True))())
+        preferences._overlay_default(None)
+        assert untouched.raylab.show is True and switched.raylab.show is False
+    finally:
+        for scene in unset:
+            scene.raylab.property_unset("show")
+        bpy.data.scenes.remove(untouched)
+        bpy.data.scenes.remove(switched)
