@@ -29,7 +29,7 @@ class RAYLAB_AP_preferences(bpy.types.AddonPreferences):
 
     compare_time_limit: FloatProperty(
         name="Compare Time Limit", default=DEFAULTS["compare_time_limit"], min=0.0, soft_max=600.0,
-        subtype='TIME_ABSOLUTE' if bpy.app.version >= (3, 0, 0) else 'NONE', unit='TIME_ABSOLUTE',
+        unit='TIME_ABSOLUTE',
         description="Compare Structures skips a structure whose render it estimates to take longer "
                     "than this, in seconds (0: no limit)")
     overlay_in_user_files: BoolProperty(
