@@ -201,6 +201,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
         job.run()
+        self._report_results(job.results)
         return self._finish(context, job)
 
     def invoke(self, context, event):
@@ -229,8 +230,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
             return {'RUNNING_MODAL'}
         if event.type != 'TIMER':
             return {'PASS_THROUGH'}
-        for result in job.results[self._reported:]:
-            self.report({'WARNING'} if result.stats is None else {'INFO'}, result_line(result))
+        self._report_results(job.results[self._reported:])
         self._reported = len(job.results)
         if not job.done:
             self._show(context)
@@ -243,6 +243,10 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
             self.report({'WARNING'}, "raylab: the scene changed during the comparison; nothing stored")
             return {'CANCELLED'}
         return self._finish(context, job)
+
+    def _report_results(self, results):
+        for result in results:
+            self.report({'WARNING'} if result.stats is None else {'INFO'}, result_line(result))
 
     def cancel(self, context):
         """Blender ends the operator (the window closes, a file is loaded): stop the worker too."""
