@@ -88,7 +88,8 @@ def main():
     measurements = {}
     for ss in SUPER_SAMPLING:
         measurements[ss] = {}
-        for structure, result in compare.compare_structures(exported, scene.raylab_render, super_sampling=ss):
+        for result in compare.compare_structures(exported, scene.raylab_render, super_sampling=ss):
+            structure = result.structure
             raylab.write_image(os.path.join(out, f"goathead_{structure}_ss{ss}.png"), result.image)
             measurements[ss][structure] = {key: (value.item() if hasattr(value, "item") else value)
                                            for key, value in result.stats.items()}

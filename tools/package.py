@@ -160,7 +160,7 @@ def add_tree(zf, source, arcroot, skip=lambda name: False):
 
 
 def write_zip(target, arcroot, builds, extra=None):
-    """The add-on folder without the development build's modules, the staged modules, the levels."""
+    """The add-on folder without the development build's modules, the staged modules, the levels, the README."""
     def development_module(relative):
         return re.fullmatch(r"_raylab(_images)?\..*\.so", relative) is not None
 
@@ -170,6 +170,8 @@ def write_zip(target, arcroot, builds, extra=None):
             add_tree(zf, folder, arcroot, skip=lambda relative: relative == "build.json")
         if os.path.isdir(LEVELS):
             add_tree(zf, LEVELS, os.path.join(arcroot, "levels"))
+        # The Preferences' Documentation button opens it.
+        zf.write(os.path.join(ROOT, "README.md"), os.path.join(arcroot, "README.md"))
         for name, text in (extra or {}).items():
             zf.writestr(os.path.join(arcroot, name), text)
 

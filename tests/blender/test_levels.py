@@ -201,9 +201,9 @@ def test_race_ticks_when_the_comparison_has_every_structure():
 def test_next_and_previous_walk_the_levels_and_replace_the_scene():
     scene_count = len(bpy.data.scenes)
     levels.open_level(bpy.context, "aabb_1")
-    assert bpy.ops.raylab.level_step(delta=1) == {'FINISHED'}
+    assert bpy.ops.raylab.level_next() == {'FINISHED'}
     assert levels.state(bpy.context.scene)["id"] == "aabb_2"
-    assert bpy.ops.raylab.level_step(delta=-1) == {'FINISHED'}
+    assert bpy.ops.raylab.level_previous() == {'FINISHED'}
     assert levels.state(bpy.context.scene)["id"] == "aabb_1"
     with pytest.raises(levels.LevelError, match="first level"):
         levels.step_level(bpy.context, -1)
@@ -315,3 +315,30 @@ def test_every_diagram_the_text_shows_exists_and_is_drawn_by_a_script():
             name = os.path.basename(path)
             script = scripts["bench" if name.startswith("bench_") else "make_diagrams"]
             assert f'"{name}"' in script, name
+
+
+def test_mesh_swap_takes_the_mesh_with_its_modifiers():
+    """Suzanne with Subdivision at level 3 renders 62,976 triangles: the swapped-in level mesh has them
+    all, whether the object is in the level's scene or in the student's own scene."""
+    user_scene = bpy.data.scenes.new("student's scene")
+    monkey = bpy.data.objects.new("Subdivided Suzanne", bpy.data.meshes.new("suzanne"))
+    user_scene.collection.objects.link(monkey)
+    import bmesh
+    shape = bmesh.new()
+    bmesh.ops.create_monkey(shape)
+    shape.to_mesh(monkey.data)
+    shape.free()
+    subdivision = monkey.modifiers.new("Subdivision", 'SUBSURF')
+    subdivision.levels = 3
+    try:
+        scene = levels.open_level(bpy.context, "aabb_1")
+        assert levels.swap_mesh(scene, "object:Subdivided Suzanne") is None
+        assert len(levels.level_mesh_object(scene).data.polygons) == 62976
+        scene.collection.objects.link(monkey)  # now in the shown scene too
+        levels.swap_mesh(scene, "file:sphere.obj")
+        levels.swap_mesh(scene, "object:Subdivided Suzanne")
+        assert len(levels.level_mesh_object(scene).data.polygons) == 62976
+        assert len(monkey.data.polygons) == 500, "the student's own mesh is left as it was"
+    finally:
+        bpy.data.objects.remove(monkey)
+        bpy.data.scenes.remove(user_scene)

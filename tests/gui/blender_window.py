@@ -1,5 +1,6 @@
 """Blender-side helpers of the GUI scripts (they run inside a real Blender window under xvfb-run):
-find the 3D viewport, take a window screenshot, run steps one timer tick apart."""
+find the 3D viewport, open its sidebar on the raylab tab, take a window screenshot, run steps one timer
+tick apart."""
 import os
 import shutil
 import subprocess
@@ -19,6 +20,28 @@ def view3d():
     region = next(r for r in area.regions if r.type == 'WINDOW')
     sidebar = next(r for r in area.regions if r.type == 'UI')
     return View3D(window, area, region, sidebar)
+
+
+def show_sidebar():
+    _, area, _, sidebar = view3d()
+    space = area.spaces.active
+    space.show_region_ui = True
+    space.show_gizmo = False
+    area.tag_redraw()
+
+
+def click_raylab_tab():
+    """Blender 3.4 has no API for the sidebar's active tab: click it (needs --enable-event-simulate).
+    The tabs run down the sidebar's right edge: Tool, View, then raylab."""
+    window, area, _, sidebar = view3d()
+    x = sidebar.x + sidebar.width - 13
+    y = sidebar.y + sidebar.height - 122
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    window.event_simulate(type='LEFTMOUSE', value='PRESS', x=x, y=y)
+    window.event_simulate(type='LEFTMOUSE', value='RELEASE', x=x, y=y)
+    # Park the pointer over the empty viewport so no tooltip or highlight lands in the pictures.
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=sidebar.y + 40)
+    area.tag_redraw()
 
 
 def screenshot(path, window=None):

@@ -25,7 +25,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 sys.path.insert(0, HERE)
-from blender_window import screenshot as window_screenshot, step_timer, view3d  # noqa: E402
+from blender_window import click_raylab_tab, screenshot as window_screenshot, show_sidebar, step_timer, view3d  # noqa: E402,E501
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
 os.makedirs(OUT_DIR, exist_ok=True)
@@ -51,28 +51,6 @@ BOX_EDGES = [(0, 1), (1, 3), (3, 2), (2, 0), (4, 5), (5, 7), (7, 6), (6, 4), (0,
 
 def rect(region):
     return dict(x=region.x, y=region.y, width=region.width, height=region.height)
-
-
-def show_sidebar():
-    _, area, _, sidebar = view3d()
-    space = area.spaces.active
-    space.show_region_ui = True
-    space.show_gizmo = False
-    area.tag_redraw()
-
-
-def click_raylab_tab():
-    """Blender 3.4 has no API for the sidebar's active tab: click it (needs --enable-event-simulate).
-    The tabs run down the sidebar's right edge: Tool, View, then raylab."""
-    window, area, _, sidebar = view3d()
-    x = sidebar.x + sidebar.width - 13
-    y = sidebar.y + sidebar.height - 122
-    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    window.event_simulate(type='LEFTMOUSE', value='PRESS', x=x, y=y)
-    window.event_simulate(type='LEFTMOUSE', value='RELEASE', x=x, y=y)
-    # Park the pointer over the empty viewport so no tooltip or highlight lands in the pictures.
-    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=sidebar.y + 40)
-    area.tag_redraw()
 
 
 def screenshot(name):

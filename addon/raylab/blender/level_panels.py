@@ -78,8 +78,8 @@ class RAYLAB_PT_levels(_LevelPanel, bpy.types.Panel):
             layout.label(text="Open a level to start:")
             _level_buttons(layout, context, None)
         row = layout.row(align=True)
-        row.operator(levels.RAYLAB_OT_level_step.bl_idname, text="Previous", icon='TRIA_LEFT').delta = -1
-        row.operator(levels.RAYLAB_OT_level_step.bl_idname, text="Next", icon='TRIA_RIGHT').delta = 1
+        row.operator(levels.RAYLAB_OT_level_previous.bl_idname, text="Previous", icon='TRIA_LEFT')
+        row.operator(levels.RAYLAB_OT_level_next.bl_idname, text="Next", icon='TRIA_RIGHT')
         if level is not None:
             box = layout.box()
             _label_lines(box, wrapped(context, level.title, 4), 'INFO')
@@ -177,7 +177,7 @@ class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
     bl_idname = "raylab.level_show_diagram"
     bl_label = "Show Diagram"
 
-    path: bpy.props.StringProperty(subtype='FILE_PATH')
+    path: bpy.props.StringProperty(subtype="FILE_PATH", description="The diagram picture to show")
 
     def execute(self, context):
         if not os.path.isfile(self.path):

@@ -57,6 +57,30 @@ def _probe_field(name):
     return get
 
 
+def _image_size(scene):
+    render = scene.render
+    scale = render.resolution_percentage / 100.0
+    return int(render.resolution_x * scale), int(render.resolution_y * scale)
+
+
+_PIXEL_KEYS = ("probe_pixel_x_set", "probe_pixel_y_set")  # the ID properties holding what was set
+
+
+def _pixel_getter(axis):
+    """The probe's pixel derives from the scene's image: its centre until set, and clamped into the
+    image (a pixel outside it gives no camera ray)."""
+    def get(self):
+        size = _image_size(self.id_data)[axis]
+        return min(max(int(self.get(_PIXEL_KEYS[axis], size // 2)), 0), max(size - 1, 0))
+    return get
+
+
+def _pixel_setter(axis):
+    def set(self, value):
+        self[_PIXEL_KEYS[axis]] = value
+    return set
+
+
 class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     # Structure overlay
     structure: EnumProperty(name="Structure", items=structure_items(drawable_only=True), default="octree", update=_redraw,
@@ -67,7 +91,8 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
                            description="Octree: the deepest level a node may split to (0 = the root alone)")
     leaf_size: IntProperty(name="Leaf size", min=1, max=64, default=api.DEFAULTS["leaf_size"], update=_redraw,
                            description="Triangles a node may hold before it splits (octree) / per leaf (BVH)")
-    show: BoolProperty(name="Show boxes", default=True, update=_redraw,
+    # Off in a user's own files (the Preferences can turn it on there); every level turns it on itself.
+    show: BoolProperty(name="Show boxes", default=False, update=_redraw,
                        description="Draw the structure's boxes over the meshes")
     objects: EnumProperty(name="Objects", default="ALL", update=_redraw, items=[
         ("ALL", "All", "Every visible mesh object"),
@@ -95,17 +120,20 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     # Ray probe
     probe_enabled: BoolProperty(name="Ray probe", default=False, update=_redraw,
                                 description="Trace one ray through the structure and show its story")
-    probe_source: EnumProperty(name="Source", default="OBJECT", update=_redraw, items=[
+    probe_source: EnumProperty(name="Source", default="OBJECT", update=_redraw,
+                               description="Where the probe's ray comes from", items=[
         ("OBJECT", "Object", "From the ray object's origin along its local +Z axis, where its arrow points"),
         ("CAMERA", "Camera", "From the scene camera through the chosen pixel"),
     ])
     probe_object: PointerProperty(name="Ray object", type=bpy.types.Object, update=_redraw,
                                   description="The ray starts at this object's origin and goes along its "
                                               "local +Z axis, where an Empty 'Single Arrow' points")
-    probe_pixel_x: IntProperty(name="Pixel X", min=0, default=960, update=_redraw,
-                               description="Camera source: the pixel column, from the left")
-    probe_pixel_y: IntProperty(name="Pixel Y", min=0, default=540, update=_redraw,
-                               description="Camera source: the pixel row, from the top")
+    probe_pixel_x: IntProperty(name="Pixel X", min=0, get=_pixel_getter(0), set=_pixel_setter(0), update=_redraw,
+                               description="Camera source: the pixel column, from the left (the image's "
+                                           "centre until set; kept inside the image)")
+    probe_pixel_y: IntProperty(name="Pixel Y", min=0, get=_pixel_getter(1), set=_pixel_setter(1), update=_redraw,
+                               description="Camera source: the pixel row, from the top (the image's centre "
+                                           "until set; kept inside the image)")
     probe_length: FloatProperty(name="Ray length", min=0.01, default=20.0, subtype="DISTANCE", update=_redraw,
                                 description="How far the ray is drawn when it hits nothing")
     fan_enabled: BoolProperty(name="Fan", default=False, update=_redraw,
@@ -117,9 +145,12 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     probe_status: StringProperty(name="Probe status", get=_probe_field("status"),
                                  description="missed_root, missed_nodes, missed_triangles, hit_object, "
                                              "or empty when there is no probe ray")
-    probe_triangles_tested: IntProperty(name="Triangles tested", get=_probe_field("triangles_tested"))
-    probe_boxes_tested: IntProperty(name="Boxes tested", get=_probe_field("boxes_tested"))
-    probe_nodes_visited: IntProperty(name="Nodes visited", get=_probe_field("nodes_visited"))
+    probe_triangles_tested: IntProperty(name="Triangles tested", get=_probe_field("triangles_tested"),
+                                        description="Triangles the probe's ray was tested against")
+    probe_boxes_tested: IntProperty(name="Boxes tested", get=_probe_field("boxes_tested"),
+                                    description="Boxes the probe's ray was tested against")
+    probe_nodes_visited: IntProperty(name="Nodes visited", get=_probe_field("nodes_visited"),
+                                     description="Nodes of the structure the probe's ray visited")
 
 
 class RAYLAB_PG_render(bpy.types.PropertyGroup):

@@ -100,11 +100,10 @@ def draw_results(layout, context):
 
 
 class RAYLAB_OT_level_leak_test(bpy.types.Operator):
-    """Shoot rays from the mesh's centre through its vertices and edges with Möller–Trumbore and with the
-    watertight test, and count the rays that slip out through a closed mesh"""
+    """Shoot rays from the mesh's centre through its vertices and edges with each triangle test and count those that slip out"""
     bl_idname = "raylab.level_leak_test"
     bl_label = "Count Leaking Rays"
-    bl_options = {'REGISTER'}
+    bl_options = {'REGISTER', 'UNDO'}
 
     def execute(self, context):
         try:

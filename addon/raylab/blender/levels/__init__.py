@@ -5,7 +5,7 @@
     meshes     the shipped meshes and the user's mesh objects a level's mesh can be swapped for
     scene      building a level's scene from scratch, next / previous, the mesh swap
     tasks      the condition engine: tasks tick themselves (a depsgraph handler and a timer)
-    operators  Open Level, Next / Previous Level, Swap Mesh
+    operators  Open Level, Next Level, Previous Level, Swap Mesh
 
 The names other modules and the tests use are re-exported here. Outside Blender (no bpy) only reading
 and state load, so the level format can be checked in plain Python.
@@ -21,7 +21,8 @@ if "bpy" in sys.modules:
     from . import operators, tasks
     from .meshes import (MESH_DIR, Z_UP_MESHES, mesh_credit, mesh_sources, normalised,  # noqa: F401
                          object_mesh_arrays, shipped_mesh_arrays, shipped_meshes)
-    from .operators import RAYLAB_OT_level_open, RAYLAB_OT_level_step, RAYLAB_OT_level_swap_mesh  # noqa: F401
+    from .operators import (RAYLAB_OT_level_next, RAYLAB_OT_level_open, RAYLAB_OT_level_previous,  # noqa: F401
+                            RAYLAB_OT_level_swap_mesh)
     from .scene import MESH_SIZE, _remove_scene, open_level, step_level, swap_mesh  # noqa: F401
     from .tasks import CHECK_INTERVAL, _check_timer, check_tasks, evaluate_condition, task_list  # noqa: F401
 

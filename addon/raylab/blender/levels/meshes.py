@@ -50,11 +50,35 @@ def shipped_mesh_arrays(filename):
 
 
 def object_mesh_arrays(obj):
-    """The triangles of a user's mesh object in its own space (modifiers and transform left out)."""
-    triangles = mesh_triangles(obj.data)
-    if len(triangles) == 0:
-        raise LevelError(f"{obj.name} has no faces")
-    return mesh_vertices(obj.data), triangles
+    """The triangles of a user's mesh object in its own space, as it renders: modifiers applied
+    (evaluated in a scene that holds it, which need not be the level's), transform left out. An
+    object in no scene has nothing to evaluate it: its mesh is taken as it is."""
+    depsgraph = _depsgraph_of(obj)
+    evaluated = obj if depsgraph is None else obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        triangles = mesh_triangles(mesh)
+        if len(triangles) == 0:
+            raise LevelError(f"{obj.name} has no faces")
+        return mesh_vertices(mesh), triangles
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def _depsgraph_of(obj):
+    """An evaluated depsgraph holding `obj`: the window's when it shows the object, else that of a view
+    layer of the object's own scene (the student's scene, while the level's is shown); None when it is in
+    no scene."""
+    context = bpy.context
+    if context.view_layer.objects.get(obj.name) == obj:
+        return context.evaluated_depsgraph_get()
+    for scene in obj.users_scene:
+        for view_layer in scene.view_layers:
+            if view_layer.objects.get(obj.name) == obj:
+                depsgraph = view_layer.depsgraph
+                depsgraph.update()
+                return depsgraph
+    return None
 
 
 def mesh_sources(scene):

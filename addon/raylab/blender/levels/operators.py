@@ -1,8 +1,9 @@
-"""The level operators: open a level, step to the next or previous one, swap the level's mesh."""
+"""The level operators: open a level, the next or the previous one, swap the level's mesh. Each builds
+or changes the scene, so each has Undo."""
 import bpy
 
 from .meshes import mesh_sources
-from .reading import LevelError
+from .reading import LevelError, available_levels
 from .scene import open_level, step_level, swap_mesh
 
 
@@ -10,34 +11,60 @@ class RAYLAB_OT_level_open(bpy.types.Operator):
     """Build this level's scene from scratch and switch to it"""
     bl_idname = "raylab.level_open"
     bl_label = "Open Level"
-    bl_options = {'REGISTER'}
+    bl_options = {'REGISTER', 'UNDO'}
 
-    level_id: bpy.props.StringProperty(name="Level")
+    level_id: bpy.props.StringProperty(name="Level", description="The level's id (its folder under levels/); "
+                                                                 "empty: the first level")
+
+    def invoke(self, context, event):
+        """From F3 (no id): a menu of the levels to pick from."""
+        if self.level_id:
+            return self.execute(context)
+
+        idname = self.bl_idname  # the menu draws after this operator is gone
+
+        def draw(menu, _context):
+            for level in available_levels()[0]:
+                menu.layout.operator(idname, text=level.title, icon='PLAY').level_id = level.id
+        context.window_manager.popup_menu(draw, title="Open Level", icon='PLAY')
+        return {'CANCELLED'}
 
     def execute(self, context):
         try:
-            open_level(context, self.level_id)
+            levels = available_levels()[0]
+            level_id = self.level_id or (levels[0].id if levels else "")
+            open_level(context, level_id)
         except LevelError as error:
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
         return {'FINISHED'}
 
 
-class RAYLAB_OT_level_step(bpy.types.Operator):
-    """Open the next or the previous level"""
-    bl_idname = "raylab.level_step"
-    bl_label = "Next / Previous Level"
-    bl_options = {'REGISTER'}
-
-    delta: bpy.props.IntProperty(name="Step", default=1, min=-1, max=1)
+class _LevelStep:
+    bl_options = {'REGISTER', 'UNDO'}
+    DELTA = 0
 
     def execute(self, context):
         try:
-            step_level(context, self.delta)
+            step_level(context, self.DELTA)
         except LevelError as error:
             self.report({'ERROR'}, f"raylab: {error}")
             return {'CANCELLED'}
         return {'FINISHED'}
+
+
+class RAYLAB_OT_level_next(_LevelStep, bpy.types.Operator):
+    """Open the next level (from a scene that is not a level: the first one)"""
+    bl_idname = "raylab.level_next"
+    bl_label = "Next Level"
+    DELTA = 1
+
+
+class RAYLAB_OT_level_previous(_LevelStep, bpy.types.Operator):
+    """Open the previous level (from a scene that is not a level: the first one)"""
+    bl_idname = "raylab.level_previous"
+    bl_label = "Previous Level"
+    DELTA = -1
 
 
 _source_items = []  # Blender needs Python to keep dynamic enum strings alive
@@ -57,7 +84,8 @@ class RAYLAB_OT_level_swap_mesh(bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
     bl_property = "source"
 
-    source: bpy.props.EnumProperty(name="Mesh", items=_mesh_items)
+    source: bpy.props.EnumProperty(name="Mesh", items=_mesh_items,
+                                   description="A shipped mesh or one of your mesh objects (with its modifiers)")
 
     def invoke(self, context, event):
         context.window_manager.invoke_search_popup(self)
@@ -72,7 +100,7 @@ class RAYLAB_OT_level_swap_mesh(bpy.types.Operator):
         return {'FINISHED'}
 
 
-CLASSES = (RAYLAB_OT_level_open, RAYLAB_OT_level_step, RAYLAB_OT_level_swap_mesh)
+CLASSES = (RAYLAB_OT_level_open, RAYLAB_OT_level_next, RAYLAB_OT_level_previous, RAYLAB_OT_level_swap_mesh)
 
 
 def register():

@@ -15,6 +15,9 @@ from .state import MESH_OBJECT_NAME, STATE_KEY, level_mesh_object, state
 from .tasks import _take_snapshots, check_tasks
 
 MESH_SIZE = 2.0          # the level mesh's largest side, in metres (times the level's scene_scale)
+# The level's own objects are named as such: a user's "Camera" stays the only one, no "Camera.001".
+CAMERA_NAME, SUN_NAME = "Level camera", "Level sun"
+WORLD_COLOUR = (0.0508, 0.0508, 0.0508)  # Blender's default world grey: background and ambient
 
 
 def _check_settings(level):
@@ -91,7 +94,7 @@ def _new_scene(level):
     filename = level.mesh["file"]
     _set_mesh(obj, *shipped_mesh_arrays(filename), MESH_SIZE * s, filename, mesh_credit(filename))
 
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera = bpy.data.objects.new(CAMERA_NAME, bpy.data.cameras.new(CAMERA_NAME))
     camera.data.lens = float(level.camera.get("lens", 50.0))
     camera.data.clip_start, camera.data.clip_end = 0.1 * s, 1000.0 * s
     camera.matrix_world = _look_at(Vector(level.camera.get("location", (4.5, -6.0, 3.0))) * s,
@@ -99,17 +102,31 @@ def _new_scene(level):
     scene.collection.objects.link(camera)
     scene.camera = camera
 
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun = bpy.data.objects.new(SUN_NAME, bpy.data.lights.new(SUN_NAME, 'SUN'))
     sun.data.energy = 3.0
     # [scene] sun_rotation: XYZ Euler degrees, as Blender's Rotation field shows them.
     sun.rotation_euler = [math.radians(float(a)) for a in level.scene.get("sun_rotation", (40.0, 15.0, 30.0))]
     sun.location = Vector((3.0, -3.0, 5.0)) * s
     scene.collection.objects.link(sun)
+    scene.world = _new_world(level)
 
     scene[STATE_KEY] = {"id": level.id, "done": [0] * len(level.tasks), "mesh_object": obj.name,
                         "start_mesh": filename, "start_matrix": [v for row in obj.matrix_world for v in row],
                         "scene_scale": s, "snapshots": "{}"}
     return scene, obj
+
+
+def _new_world(level):
+    """The level's World: without one, renders have a black background and no ambient light.
+    [scene] world = [r, g, b] sets its colour (linear)."""
+    world = bpy.data.worlds.new(f"raylab: {level.title}")
+    colour = tuple(float(c) for c in level.scene.get("world", WORLD_COLOUR))
+    world.color = colour
+    world.use_nodes = True
+    background = next(node for node in world.node_tree.nodes if node.type == 'BACKGROUND')
+    background.inputs["Color"].default_value = (*colour, 1.0)
+    background.inputs["Strength"].default_value = 1.0
+    return world
 
 
 def _place_probe(scene, level):
@@ -143,8 +160,15 @@ def _frame_views(window, level):
 def _remove_scene(scene):
     for obj in list(scene.objects):
         if len(obj.users_scene) == 1:
+            data = obj.data
             bpy.data.objects.remove(obj)
+            # The level's camera, sun and mesh data go with it (a user's mesh swapped in is a copy).
+            if data is not None and data.users == 0 and isinstance(data, (bpy.types.Camera, bpy.types.Light)):
+                (bpy.data.cameras if isinstance(data, bpy.types.Camera) else bpy.data.lights).remove(data)
+    world = scene.world
     bpy.data.scenes.remove(scene)
+    if world is not None and world.users == 0:
+        bpy.data.worlds.remove(world)
 
 
 def _drop_name_suffixes(scene):
@@ -154,6 +178,8 @@ def _drop_name_suffixes(scene):
         if base != obj.name and base not in bpy.data.objects:
             was = obj.name
             obj.name = base
+            if obj.type in {'CAMERA', 'LIGHT'} and obj.data.users == 1:
+                obj.data.name = base
             if scene[STATE_KEY]["mesh_object"] == was:
                 scene[STATE_KEY]["mesh_object"] = base
 
@@ -180,6 +206,12 @@ def open_level(context, level_id, root=None):
         if previous != scene and state(previous) is not None:
             _remove_scene(previous)
     _drop_name_suffixes(scene)
+    # Deleting the previous level's objects and scene copies the shown scene's evaluated objects again
+    # without re-evaluating their transforms, and Blender 3.4 then drew the level mesh black (as if its
+    # normals were lost) until it moved. Re-evaluating the transforms, what a move does, shades it; a
+    # geometry update does not (tests/gui/test_level_switch_gui.py).
+    for obj in scene.objects:
+        obj.update_tag(refresh={'OBJECT'})
     _take_snapshots(scene, level, 0)
     check_tasks(scene)
     return scene

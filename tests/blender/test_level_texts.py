@@ -1,0 +1,85 @@
+"""The texts say what is drawn: every colour a level's text.md (or the README's level pictures) names is
+the colour the add-on draws that thing in, and every place a text sends the student to is where the
+panel or the operator really is."""
+import os
+import re
+import sys
+import tomllib
+
+import numpy as np
+import pytest
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+from raylab.blender import compare, probe, properties  # noqa: E402
+from raylab.blender.experiments import leak  # noqa: E402
+
+LEVELS_DIR = os.path.join(ROOT, "levels")
+TEXTS = sorted(f"levels/{d}/text.md" for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "text.md")))
+
+# What a reader calls each colour; a drawn colour is named by the nearest of these.
+NAMED = {"red": (1.0, 0.1, 0.1), "orange": (1.0, 0.55, 0.1), "yellow": (1.0, 0.9, 0.1), "green": (0.2, 1.0, 0.2),
+         "cyan": (0.2, 0.85, 1.0), "blue": (0.1, 0.2, 1.0), "grey": (0.62, 0.62, 0.7), "pink": (1.0, 0.15, 0.55),
+         "white": (1.0, 1.0, 1.0), "black": (0.0, 0.0, 0.0)}
+COLOUR_WORD = re.compile(r"\b(" + "|".join(NAMED) + r"|gray|magenta|purple)\b", re.IGNORECASE)
+
+
+def aabb_1_line_colour():
+    with open(os.path.join(LEVELS_DIR, "aabb_1", "level.toml"), "rb") as f:
+        return tomllib.load(f)["raylab"]["line_color"]
+
+
+# (file, the phrase that names a colour, the colour drawn for it). Every colour word in a level's
+# text.md must be covered here, so a new one cannot go unchecked.
+CLAIMS = [
+    ("levels/aabb_1/text.md", "green box", aabb_1_line_colour),
+    ("levels/bvh_2/text.md", "cyan ones hit", lambda: probe.STATUS_COLORS["hit_object"]),
+    ("levels/bvh_2/text.md", "grey ones missed the root", lambda: probe.STATUS_COLORS["missed_root"]),
+    ("levels/bvh_2/text.md", "orange ones missed every box", lambda: probe.STATUS_COLORS["missed_nodes"]),
+    ("levels/bvh_2/text.md", "yellow ones tested triangles", lambda: probe.STATUS_COLORS["missed_triangles"]),
+    ("levels/where_methods_fail/text.md", "escaped rays in red", lambda: leak.RAY_COLOR),
+    ("levels/where_methods_fail/text.md", "yellow dot", lambda: leak.CROSSING_COLOR),
+    ("README.md", "escaped rays are drawn in red", lambda: leak.RAY_COLOR),
+    ("README.md", "closed sphere (red)", lambda: leak.RAY_COLOR),
+    ("README.md", "yellow dot", lambda: leak.CROSSING_COLOR),
+]
+
+
+def colour_name(rgb):
+    rgb = np.asarray(rgb[:3], dtype=float)
+    return min(NAMED, key=lambda name: np.linalg.norm(rgb - NAMED[name]))
+
+
+def read(relative):
+    with open(os.path.join(ROOT, relative), encoding="utf-8") as f:
+        return " ".join(f.read().split())  # a phrase may wrap onto the next line
+
+
+@pytest.mark.parametrize("path, phrase, drawn", CLAIMS, ids=[f"{c[0]}: {c[1]}" for c in CLAIMS])
+def test_the_colour_a_text_names_is_the_colour_drawn(path, phrase, drawn):
+    assert phrase in read(path), f"{path} no longer says {phrase!r}: update CLAIMS"
+    word = COLOUR_WORD.search(phrase).group(1).lower()
+    assert colour_name(drawn()) == word, f"{path} says {phrase!r}, but it is drawn {colour_name(drawn())}"
+
+
+@pytest.mark.parametrize("path", TEXTS)
+def test_every_colour_word_of_a_level_text_is_checked(path):
+    said = [m.group(1).lower() for m in COLOUR_WORD.finditer(read(path))]
+    checked = [COLOUR_WORD.search(phrase).group(1).lower() for file, phrase, _ in CLAIMS if file == path]
+    assert sorted(said) == sorted(checked), f"{path} names colours {said}; CLAIMS checks {checked}"
+
+
+def test_compare_structures_is_where_the_texts_say():
+    """The comparison's panel is in the 3D viewport's sidebar, not in the render settings."""
+    panel = compare.RAYLAB_PT_comparison
+    assert (panel.bl_space_type, panel.bl_region_type) == ('VIEW_3D', 'UI')
+    assert any("Compare Structures" in read(path) for path in TEXTS)
+    for path in TEXTS:
+        if "Compare Structures" in read(path):
+            text = read(path)
+            assert "render settings" not in text.split("Compare Structures", 1)[1][:60], path
+            assert "sidebar" in text, f"{path} mentions Compare Structures without saying where it is"
+
+
+def test_the_line_colour_default_is_the_green_the_levels_name():
+    assert colour_name(properties.VRT_GREEN) == "green"

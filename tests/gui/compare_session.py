@@ -1,0 +1,172 @@
+"""Runs inside a real Blender window (xvfb-run, --enable-event-simulate): Compare Structures on the race
+level with the dragon swapped in, as a student runs it from the sidebar.
+
+    xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup --enable-event-simulate START.blend \
+        --python tests/gui/compare_session.py -- OUT_DIR
+
+1. Started without a time limit, brute force renders the dragon for minutes: while it runs, a 0.1 s
+   timer counts its ticks (the UI answers) and compare_running.png shows the panel's progress bar; then
+   Esc (a simulated key press) cancels it and compare_cancelled.png shows the panel after it.
+2. Started with a time limit of 5 s, it runs to its end; the structures estimated over the limit are
+   skipped with a note (compare_skipped.png).
+OUT_DIR/compare_session.json holds what was seen, or "error".
+"""
+import json
+import os
+import sys
+import threading
+import time
+import traceback
+
+import bpy
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
+sys.path.insert(0, HERE)
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
+
+OUT_DIR = sys.argv[sys.argv.index("--") + 1]
+os.makedirs(OUT_DIR, exist_ok=True)
+report = {}
+WATCHDOG_SECONDS = 500
+TIME_LIMIT = 5.0
+ticks = []
+
+
+def finish():
+    with open(os.path.join(OUT_DIR, "compare_session.json"), "w") as f:
+        json.dump(report, f)
+    bpy.ops.wm.quit_blender()
+
+
+def rect(region):
+    return dict(x=region.x, y=region.y, width=region.width, height=region.height)
+
+
+def workers():
+    return sum(thread.name == "raylab compare" for thread in threading.enumerate())
+
+
+def tick():
+    """Counts the ticks that fire while a comparison runs: none would while a render blocked the UI."""
+    from raylab.blender import compare
+    if compare.running_job() is not None:
+        ticks.append(time.monotonic())
+    return 0.1
+
+
+def scroll_sidebar_down():
+    """The Structure Comparison panel comes last, below the level's panels: wheel the sidebar down."""
+    window, area, _, sidebar = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=sidebar):
+        for _ in range(30):
+            bpy.ops.view2d.scroll_down(page=True)
+
+
+def compare_from_the_sidebar(**properties):
+    window, area, _, sidebar = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=sidebar):
+        return bpy.ops.raylab.compare_structures('INVOKE_DEFAULT', **properties)
+
+
+def open_race():
+    from raylab.blender import levels
+    window, area, region, _ = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.raylab.level_open(level_id="race") == {'FINISHED'}
+        assert bpy.ops.raylab.level_swap_mesh(source="file:dragon.obj") == {'FINISHED'}
+    report["triangles"] = len(levels.level_mesh_object(window.scene).data.polygons)
+    show_sidebar()
+
+
+def start_unlimited():
+    report["started"] = sorted(compare_from_the_sidebar(time_limit=0.0))
+
+
+def while_running():
+    from raylab.blender import compare
+    job = compare.running_job()
+    report["running"] = dict(job=job is not None, ticks=len(ticks),
+                             structure=job.current if job else None, workers=workers())
+    window, _, _, sidebar = view3d()
+    report["sidebar"], report["window_height"] = rect(sidebar), window.height
+    scroll_sidebar_down()
+    screenshot(os.path.join(OUT_DIR, "compare_running.png"))
+
+
+def press_escape():
+    window = view3d().window
+    window.event_simulate(type='ESC', value='PRESS')
+    window.event_simulate(type='ESC', value='RELEASE')
+
+
+def wait_until(condition, timeout):
+    """A step that returns only once condition() holds (the step timer calls it again meanwhile)."""
+    deadline = []
+
+    def step():
+        if not deadline:
+            deadline.append(time.monotonic() + timeout)
+        return condition() or time.monotonic() >= deadline[0]
+    return step
+
+
+def after_cancel():
+    from raylab.blender import compare
+    scene = bpy.context.window_manager.windows[0].scene
+    report["cancelled"] = dict(job=compare.running_job() is not None, workers=workers(),
+                               stored=compare.COMPARISON in scene, skipped=compare.SKIPPED in scene)
+    scroll_sidebar_down()
+    screenshot(os.path.join(OUT_DIR, "compare_cancelled.png"))
+
+
+def start_limited():
+    report["started_limited"] = sorted(compare_from_the_sidebar(time_limit=TIME_LIMIT))
+
+
+def after_limited():
+    from raylab.blender import compare
+    scene = bpy.context.window_manager.windows[0].scene
+    report["limited"] = dict(job=compare.running_job() is not None, workers=workers(),
+                             compared=list(scene.get(compare.COMPARISON, {}).keys()),
+                             skipped={k: v for k, v in scene.get(compare.SKIPPED, {}).items()})
+    scroll_sidebar_down()
+    screenshot(os.path.join(OUT_DIR, "compare_skipped.png"))
+
+
+def job_over():
+    from raylab.blender import compare
+    return compare.running_job() is None
+
+
+STEPS = [open_race, click_raylab_tab, scroll_sidebar_down, start_unlimited, lambda: None, while_running, press_escape,
+         wait_until(job_over, 120.0), after_cancel, start_limited, wait_until(job_over, 400.0), after_limited]
+
+
+def run_steps():
+    try:
+        if STEPS[0]() is False:  # a waiting step: again on the next tick
+            return 0.5
+        STEPS.pop(0)
+        if STEPS:
+            return 1.5
+    except Exception:
+        report["error"] = traceback.format_exc()
+    finish()
+    return None
+
+
+def watchdog():
+    report["error"] = f"the session did not finish within {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
+    finish()
+
+
+try:
+    import raylab
+    raylab.register()
+    bpy.app.timers.register(tick, first_interval=0.1)
+    bpy.app.timers.register(run_steps, first_interval=2.0)
+    bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
+except Exception:
+    report["error"] = traceback.format_exc()
+    finish()
