@@ -123,13 +123,15 @@ py::dict story(const Structure& s, py::handle origin, py::handle direction, py::
 }
 
 // Closest hits plus each ray's status as an index into RAY_STATUSES.
-py::dict statuses(const Structure& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax) {
+py::dict statuses(const Structure& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
+                  py::handle threads_value) {
   const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
+  const int threads = threads_parameter(threads_value);
   std::vector<Hit> hits(rays.size());
   std::vector<RayStatus> status(rays.size());
   {
     py::gil_scoped_release release;
-    intersect_with_status(s, rays, hits, status);
+    intersect_with_status(s, rays, hits, status, threads);
   }
   py::dict d = hits_to_dict(hits, true);
   d["status"] = column<int8_t>(status, [](RayStatus r) { return int8_t(r); });
@@ -159,12 +161,12 @@ void bind_core(py::module_& m) {
       .def_property_readonly("mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
                              "A copy of the mesh: (vertices, triangles).")
       .def("intersect", &intersect_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("boxes", &boxes)
       .def("statuses", &statuses, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit)
+           py::arg("tmax") = kNoLimit, py::arg("threads") = py::none())
       .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit);
 

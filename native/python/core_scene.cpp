@@ -111,9 +111,9 @@ void bind_scene(py::module_& m) {
              s.commit();
            })
       .def("intersect", &intersect_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("occluded", &occluded_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def_property_readonly("mesh_count", &Scene::mesh_count)
       .def_property_readonly("instance_count", &Scene::instance_count)
       .def_property_readonly("memory_bytes", &Scene::memory_bytes)

@@ -76,9 +76,9 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
 }
 
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats) {
+                       TraversalStats* stats, int threads) {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) {
+  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) {
     Hit h;
     if (st) s.closest(rays[i], h, *st);
     else s.closest(rays[i], h);
@@ -87,18 +87,18 @@ void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<
 }
 
 void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats) {
+                   TraversalStats* stats, int threads) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) {
+  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) {
     occluded[i] = st ? s.any(rays[i], *st) : s.any(rays[i]);
   });
 }
 
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                           std::span<RayStatus> statuses) {
+                           std::span<RayStatus> statuses, int threads) {
   if (hits.size() != rays.size() || statuses.size() != rays.size())
     throw std::invalid_argument("hits, statuses and rays differ in length");
-  for_each_ray(rays.size(), nullptr, [&](size_t i, TraversalStats*) {
+  for_each_ray(rays.size(), threads, nullptr, [&](size_t i, TraversalStats*) {
     TraversalStats own;  // this ray's counters alone
     Hit h;
     const bool hit = s.closest(rays[i], h, own);
