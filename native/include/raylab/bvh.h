@@ -1,7 +1,7 @@
-// `bvh`: a binned SAH hierarchy (bvh_build.h) collapsed into a 4-wide BVH whose nodes test their four
-// children at once with SSE and whose leaves hold triangles in packets of four for the SIMD
-// watertight test (bvh_simd.h). Traversal is ordered: the nearest child first, and a node is skipped
-// once the closest hit lies before it.
+// `bvh`: a binned SAH hierarchy (bvh_build.h) collapsed into a wide BVH: 8-wide nodes tested with
+// AVX2 where the CPU has it, else 4-wide nodes tested with SSE (one binary, x86-64-v2 as the floor;
+// bvh_simd.h). Leaves hold triangles in packets of four for the SIMD watertight test. Traversal is
+// ordered: the nearest child first, and a node is skipped once the closest hit lies before it.
 #pragma once
 
 #include "raylab/box_intersection.h"
@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <type_traits>
 
 namespace raylab {
 
@@ -23,11 +24,14 @@ inline float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-1
 
 class Bvh final : public StructureBase<Bvh> {
  public:
-  // The builder keeps the binary depth below 48 + log2(n); a 4-wide level pushes at most 3 entries
-  // more than it pops.
+  // The builder keeps the binary depth below 48 + log2(n) <= 80. A wide node of k children spans at
+  // least log2(k) binary levels and pushes at most k - 1 entries more than it pops: at most 7/3 per
+  // binary level (k = 8), under 190 in all.
   static constexpr int kStackSize = 256;
 
-  Bvh(MeshPtr mesh, const BuildSettings& settings);
+  // width: 8 (AVX2), 4 (SSE) or 0 for the widest this CPU runs; RAYLAB_BVH_WIDTH=4 in the environment
+  // makes 0 mean 4 (to measure or test the SSE path on an AVX2 machine). 8 without AVX2 is an error.
+  Bvh(MeshPtr mesh, const BuildSettings& settings, int width = 0);
 
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
@@ -44,7 +48,10 @@ class Bvh final : public StructureBase<Bvh> {
   std::vector<BoxInfo> boxes() const override;
   size_t memory_bytes() const override;
 
-  const std::vector<Bvh4Node>& nodes() const { return nodes_; }
+  int width() const { return width_; }
+  // The nodes of the width built (the other vector is empty).
+  const std::vector<Bvh4Node>& nodes() const { return nodes4_; }
+  const std::vector<Bvh8Node>& nodes8() const { return nodes8_; }
   std::span<const TrianglePacket> packets() const { return {packets_.get(), packet_count_}; }
 
  private:
@@ -55,17 +62,55 @@ class Bvh final : public StructureBase<Bvh> {
     int depth;
   };
 
-  // One loop for both queries: closest hit prunes entries beyond the best hit so far; any hit stops
-  // at the first triangle hit.
+  // The two node widths, as the traversal sees them.
+  struct Sse4 {
+    using Node = Bvh4Node;
+    using BoxRayW = Box4Ray;
+    static int test(const Node& node, const BoxRayW& r, float tmax, float t[4]) {
+      __m128 entry;
+      const int mask = intersect_box4(node, r, tmax, entry);
+      _mm_storeu_ps(t, entry);
+      return mask;
+    }
+  };
+  struct Avx8 {
+    using Node = Bvh8Node;
+    using BoxRayW = Box8Ray;
+    __attribute__((target("avx2"))) static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
+      return intersect_box8(node, r, tmax, t);
+    }
+  };
+
   template <bool kClosest, class Recorder>
   bool traverse(const Ray& ray, Hit* hit, Recorder& record) const {
+    if (width_ == 8) return traverse8<kClosest>(ray, hit, record);
+    return traverse_wide<Sse4, kClosest>(ray, hit, record);
+  }
+
+  // The AVX2 instance of the one traversal: traverse_wide and everything it calls are inlined here,
+  // so the 8-box test is too.
+  template <bool kClosest, class Recorder>
+  __attribute__((target("avx2"))) bool traverse8(const Ray& ray, Hit* hit, Recorder& record) const {
+    return traverse_wide<Avx8, kClosest>(ray, hit, record);
+  }
+
+  template <class Width>
+  const std::vector<typename Width::Node>& wide_nodes() const {
+    if constexpr (std::is_same_v<Width, Avx8>) return nodes8_;
+    else return nodes4_;
+  }
+
+  // One loop for both queries and both widths: closest hit prunes entries beyond the best hit so far;
+  // any hit stops at the first triangle hit.
+  template <class Width, bool kClosest, class Recorder>
+  [[gnu::always_inline]] bool traverse_wide(const Ray& ray, Hit* hit, Recorder& record) const {
     record.ray();
     const BoxRay box_ray(ray, root_bounds_);
     Entry stack[kStackSize];
     int size = 0;
     if (!enter_root(box_ray, record, stack, size)) return false;
     const TriangleTester tester(ray, settings_.triangle_test);
-    const Box4Ray box4(box_ray);
+    const typename Width::BoxRayW boxw(box_ray);
     const Watertight4Ray tri4(tester.watertight);
     Hit best = initial_hit(ray);
     bool found = false;
@@ -82,7 +127,8 @@ class Bvh final : public StructureBase<Bvh> {
       }
       record_node(e, record);
       if (e.count == 0) {
-        descending = visit_children<kClosest>(e, box4, kClosest ? best.t : ray.tmax, record, stack, size);
+        descending =
+            visit_children<Width, kClosest>(e, boxw, kClosest ? best.t : ray.tmax, record, stack, size);
       } else if constexpr (kClosest) {
         found |= closest_in_leaf(tester, tri4, e, best, record);
       } else if (any_in_leaf(tester, tri4, e, record)) {
@@ -94,7 +140,7 @@ class Bvh final : public StructureBase<Bvh> {
   }
 
   uint32_t leaf_id(uint32_t first_packet) const {
-    return uint32_t(nodes_.size() +
+    return uint32_t(node_count() +
                     (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) - leaf_packets_.begin()));
   }
 
@@ -106,23 +152,23 @@ class Bvh final : public StructureBase<Bvh> {
   template <class Recorder>
   bool enter_root(const BoxRay& box_ray, Recorder& record, Entry* stack, int& size) const {
     float t_entry;
-    if (!raylab::enter_root(root_bounds_, !nodes_.empty(), box_ray, box_ray.tmax, record, t_entry)) return false;
+    if (!raylab::enter_root(root_bounds_, node_count() != 0, box_ray, box_ray.tmax, record, t_entry)) return false;
     stack[size++] = {0, 0, t_entry, 0};
     return true;
   }
 
-  // Tests the four children of node `e` and replaces `e` with the child to visit next, returning
-  // false when no child is hit. The other children hit go on the stack; `Ordered` puts the nearest
-  // child in `e` and pushes the rest farthest first. A lone hit child, the common case, skips the stack.
-  template <bool Ordered, class Recorder>
-  bool visit_children(Entry& e, const Box4Ray& box4, float tmax, Recorder& record, Entry* stack, int& size) const {
-    const Bvh4Node& node = nodes_[e.ref];
-    __m128 entry;
-    int mask = intersect_box4(node, box4, tmax, entry);
-    alignas(16) float t[4];
-    _mm_store_ps(t, entry);
+  // Tests the children of node `e` and replaces `e` with the child to visit next, returning false
+  // when no child is hit. The other children hit go on the stack; `Ordered` puts the nearest child in
+  // `e` and pushes the rest farthest first. A lone hit child, the common case, skips the stack.
+  template <class Width, bool Ordered, class Recorder>
+  [[gnu::always_inline]] bool visit_children(Entry& e, const typename Width::BoxRayW& boxw, float tmax,
+                                             Recorder& record, Entry* stack, int& size) const {
+    using Node = typename Width::Node;
+    const Node& node = wide_nodes<Width>()[e.ref];
+    alignas(32) float t[Node::kWidth];
+    int mask = Width::test(node, boxw, tmax, t);
     if constexpr (Recorder::kActive) {
-      for (int i = 0; i < 4; ++i)
+      for (int i = 0; i < Node::kWidth; ++i)
         if (node.used(i))
           record.box(node.leaf(i) ? leaf_id(node.child[i]) : node.child[i], node.bounds(i), e.depth + 1,
                      (mask >> i) & 1, t[i]);
@@ -159,9 +205,14 @@ class Bvh final : public StructureBase<Bvh> {
   // Starts loading a child while its siblings are tested: on large meshes traversal waits on memory.
   void prefetch(const Entry& e) const {
     const char* p = e.count != 0 ? reinterpret_cast<const char*>(&packets_[e.ref])
-                                 : reinterpret_cast<const char*>(&nodes_[e.ref]);
+                    : width_ == 8 ? reinterpret_cast<const char*>(&nodes8_[e.ref])
+                                  : reinterpret_cast<const char*>(&nodes4_[e.ref]);
     _mm_prefetch(p, _MM_HINT_T0);
     _mm_prefetch(p + 64, _MM_HINT_T0);
+    if (e.count == 0 && width_ == 8) {  // an 8-wide node is four cache lines
+      _mm_prefetch(p + 128, _MM_HINT_T0);
+      _mm_prefetch(p + 192, _MM_HINT_T0);
+    }
   }
 
   uint32_t triangle_at(const Entry& leaf, uint32_t i) const { return packets_[leaf.ref + i / 4].triangle[i % 4]; }
@@ -216,8 +267,12 @@ class Bvh final : public StructureBase<Bvh> {
     return false;
   }
 
+  size_t node_count() const { return width_ == 8 ? nodes8_.size() : nodes4_.size(); }
+
   Bounds root_bounds_;
-  std::vector<Bvh4Node> nodes_;
+  int width_ = 4;
+  std::vector<Bvh4Node> nodes4_;  // one of the two, by width_
+  std::vector<Bvh8Node> nodes8_;
   HugeArray<TrianglePacket> packets_;
   size_t packet_count_ = 0;
   std::vector<uint32_t> leaf_packets_;  // first packet of each leaf, increasing: leaf k's id

@@ -1,4 +1,5 @@
-// The SSE kernels of the 4-wide BVH: one ray against four boxes and against four triangles at once.
+// The SIMD kernels of the wide BVH: one ray against four boxes (SSE) or eight (AVX2), and against four
+// triangles at once (SSE).
 // The box kernel is a lane-wise transcription of intersect_box, with the same operations in the same
 // order and the same NaN handling; the triangle kernel is intersect_watertight's float filter, and
 // the lanes it cannot reject are decided by the same double-precision function as the scalar test.
@@ -14,15 +15,19 @@
 
 namespace raylab {
 
-// Four children of a 4-wide node (128 bytes, two cache lines). A leaf child has count > 0 and its
-// triangles in packets[child .. child + ceil(count / 4)); an inner child has count 0 and its node
-// index in `child`. Unused slots have count 0 and child kInvalidIndex; no box value is missed by
-// every ray under IEEE rules (a ray with tmax = inf reaches +inf), so the test masks them out.
-struct alignas(64) Bvh4Node {
-  float lo[3][4];  // [axis][child]
-  float hi[3][4];
-  uint32_t child[4];
-  uint32_t count[4];
+// The children of a W-wide node (4: 128 bytes, two cache lines; 8: 256 bytes, four). A leaf child
+// has count > 0 and its triangles in packets[child .. child + ceil(count / 4)); an inner child has
+// count 0 and its node index in `child`. Unused slots have count 0 and child kInvalidIndex; no box
+// value is missed by every ray under IEEE rules (a ray with tmax = inf reaches +inf), so the test
+// masks them out. Bounds are plain floats, not quantised: the exactness pad (BoxRay) is applied to the
+// stored box as the scalar test applies it, which a quantised box would first have to round outwards.
+template <int W>
+struct alignas(64) BvhWideNode {
+  static constexpr int kWidth = W;
+  float lo[3][W];  // [axis][child]
+  float hi[3][W];
+  uint32_t child[W];
+  uint32_t count[W];
 
   bool used(int i) const { return count[i] != 0 || child[i] != kInvalidIndex; }
   bool leaf(int i) const { return count[i] != 0; }
@@ -30,7 +35,10 @@ struct alignas(64) Bvh4Node {
     return {{lo[0][i], lo[1][i], lo[2][i]}, {hi[0][i], hi[1][i], hi[2][i]}};
   }
 };
+using Bvh4Node = BvhWideNode<4>;
+using Bvh8Node = BvhWideNode<8>;
 static_assert(sizeof(Bvh4Node) == 128);
+static_assert(sizeof(Bvh8Node) == 256);
 
 // Four triangles' vertices, structure of arrays, in leaf order. Unused lanes repeat the packet's
 // first triangle and carry kInvalidIndex; the leaf's count says which lanes are real.
@@ -75,6 +83,52 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
   const __m128i unused = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(node.child)),
                                          _mm_set1_epi32(int(kInvalidIndex)));
   return _mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(unused), _mm_cmple_ps(t_near, t_far)));
+}
+
+// The 8-wide node test (AVX2), chosen at run time where the CPU has AVX2 (cpu_has_avx2): the binary
+// stays x86-64-v2. Only "avx2", never "fma": with FMA enabled GCC may contract a product and a sum
+// into one rounding (-ffp-contract=fast is its default), and every lane must round as the scalar
+// test does.
+struct Box8Ray {
+  __m256 origin[3], inv_dir[3];
+  __m256 tmin, pad;
+
+  __attribute__((target("avx2"))) explicit Box8Ray(const BoxRay& r)
+      : tmin(_mm256_set1_ps(r.tmin)), pad(_mm256_set1_ps(r.pad)) {
+    for (int a = 0; a < 3; ++a) {
+      origin[a] = _mm256_set1_ps(r.origin[a]);
+      inv_dir[a] = _mm256_set1_ps(r.inv_dir[a]);
+    }
+  }
+};
+
+// intersect_box4 on eight boxes, operation for operation (the AVX min, max and ordered compare treat
+// NaN as the SSE ones do). Returns the hit mask and writes the entry distances.
+__attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, const Box8Ray& r, float tmax,
+                                                          float t_entry[8]) {
+  __m256 t_near = r.tmin;
+  __m256 t_far = _mm256_set1_ps(tmax);
+  const __m256 far_scale = _mm256_set1_ps(kBoxFarScale);
+  for (int a = 0; a < 3; ++a) {
+    const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_load_ps(node.lo[a]), r.origin[a]), r.pad),
+                                    r.inv_dir[a]);
+    const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_load_ps(node.hi[a]), r.origin[a]), r.pad),
+                                    r.inv_dir[a]);
+    const __m256 near = _mm256_min_ps(t1, t0);
+    const __m256 far = _mm256_mul_ps(_mm256_max_ps(t0, t1), far_scale);
+    t_near = _mm256_max_ps(near, t_near);
+    t_far = _mm256_min_ps(far, t_far);
+  }
+  _mm256_storeu_ps(t_entry, t_near);
+  const __m256i unused = _mm256_cmpeq_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(node.child)),
+                                            _mm256_set1_epi32(int(kInvalidIndex)));
+  return _mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(unused), _mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ)));
+}
+
+// Whether this CPU runs the AVX2 kernels (asked once).
+inline bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
 }
 
 // The per-ray constants of the 4-triangle watertight test.
