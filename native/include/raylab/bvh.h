@@ -1,8 +1,8 @@
 // `bvh`: a binned SAH hierarchy (bvh_build.h) collapsed into a wide BVH: 8-wide nodes tested with
 // AVX2 where the CPU has it, else 4-wide nodes tested with SSE (one binary, x86-64-v2 as the floor;
 // bvh_simd.h). Leaves hold triangles in packets of four for the SIMD watertight test, run on one
-// packet at a time with SSE and two with AVX2. Traversal is
-// ordered: the nearest child first, and a node is skipped once the closest hit lies before it.
+// packet at a time with SSE and on two with AVX2. Traversal is ordered: the nearest child first, and a
+// node is skipped once the closest hit lies before it.
 #pragma once
 
 #include "raylab/box_intersection.h"
@@ -63,9 +63,9 @@ class Bvh final : public StructureBase<Bvh> {
     int depth;
   };
 
-  // The two node widths, as the traversal sees them.
-  // `test` tests a node's children; `triangles` the next kLeafLanes triangles of a leaf (`lanes` of
-  // them real) from the packets at `p`: one packet with SSE, two with AVX2.
+  // The two widths, as the traversal sees them: `test` tests a node's children; `triangles` the next
+  // kLeafLanes triangles of a leaf (`lanes` of them real) from the packets at `p`: one packet with SSE,
+  // two with AVX2.
   struct Sse4 {
     using Node = Bvh4Node;
     using BoxRayW = Box4Ray;
