@@ -144,24 +144,27 @@ class Structure:
         """A copy of the mesh: ((V,3) float32, (T,3) uint32)."""
         return self.native.mesh
 
-    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
         """Closest hits in (tmin, tmax] of rays given as (N,3) origins and directions (either may be
         one (3,) row shared by all rays). Returns Hits. With count=True, h.stats is a dict with
-        the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None."""
-        return Hits(self.native.intersect(origins, directions, tmin, tmax, count))
+        the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None. threads: how many
+        threads trace (None or 0 = all cores; 1 for single-thread timings, n - 1 to leave a core
+        free); the answers are the same on any number."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, threads))
 
-    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
-        """Whether anything is hit in (tmin, tmax]: the shadow-ray query. Returns Occlusion."""
-        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count))
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
+        """Whether anything is hit in (tmin, tmax]: the shadow-ray query. Returns Occlusion.
+        threads as in intersect()."""
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, threads))
 
     def boxes(self):
         """The boxes: dict lo (B,3) f32, hi (B,3) f32, depth (B,) i32, leaf (B,) bool, triangle_count (B,) u32."""
         return self.native.boxes()
 
-    def statuses(self, origins, directions, tmin=0.0, tmax=math.inf):
+    def statuses(self, origins, directions, tmin=0.0, tmax=math.inf, threads=None):
         """Closest hits of N rays plus each ray's status, what its story would say without recording
-        it. Returns Statuses."""
-        return Statuses(self.native.statuses(origins, directions, tmin, tmax))
+        it. Returns Statuses. threads as in intersect()."""
+        return Statuses(self.native.statuses(origins, directions, tmin, tmax, threads))
 
     def story(self, origin, direction, tmin=0.0, tmax=math.inf):
         """The whole closest-hit story of one ray given as (3,) origin and direction."""
@@ -237,16 +240,18 @@ class Scene:
         """Builds what changed since the last commit; queries need it."""
         self.native.commit()
 
-    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
-        """Closest hits of world-space rays, as Structure.intersect; h.instance says which instance."""
-        return Hits(self.native.intersect(origins, directions, tmin, tmax, count))
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
+        """Closest hits of world-space rays, as Structure.intersect (threads too); h.instance says
+        which instance."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, threads))
 
-    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False):
-        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count))
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
+        """Whether anything is hit, as Structure.occluded (threads too)."""
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, threads))
 
-    def statuses(self, origins, directions, tmin=0.0, tmax=math.inf):
+    def statuses(self, origins, directions, tmin=0.0, tmax=math.inf, threads=None):
         """Closest hits of world rays with each ray's status, as Structure.statuses (h.instance set)."""
-        return Statuses(self.native.statuses(origins, directions, tmin, tmax))
+        return Statuses(self.native.statuses(origins, directions, tmin, tmax, threads))
 
     def story(self, origin, direction, tmin=0.0, tmax=math.inf):
         """Everything one world ray did: a SceneStory."""

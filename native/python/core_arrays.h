@@ -94,18 +94,19 @@ py::dict statuses_to_dict(const std::vector<Hit>& hits, const std::vector<RaySta
 
 
 
-// A batch query: rays from the arrays, `trace(rays, results, stats)` with the GIL released while both
-// cores trace, then the results as a dict of arrays plus "stats" (None unless `count`).
+// A batch query: rays from the arrays, `trace(rays, results, stats, threads)` with the GIL released
+// while the cores trace, then the results as a dict of arrays plus "stats" (None unless `count`).
 template <class Result, class Trace, class ToDict>
 py::dict trace_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
-                      py::handle count_flag, Trace trace, ToDict to_dict) {
+                      py::handle count_flag, py::handle threads_value, Trace trace, ToDict to_dict) {
   const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
   const bool count = bool_parameter(count_flag, "count");
+  const int threads = threads_parameter(threads_value);
   std::vector<Result> results(rays.size());
   TraversalStats stats;
   {
     py::gil_scoped_release release;
-    trace(rays, results, count ? &stats : nullptr);
+    trace(rays, results, count ? &stats : nullptr, threads);
   }
   py::dict d = to_dict(results);
   d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
@@ -116,11 +117,11 @@ py::dict trace_arrays(py::handle origins, py::handle directions, py::handle tmin
 // intersect_any).
 template <class Target>
 py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
-                        py::handle tmax, py::handle count) {
+                        py::handle tmax, py::handle count, py::handle threads) {
   return trace_arrays<Hit>(
-      origins, directions, tmin, tmax, count,
-      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats) {
-        intersect_closest(target, rays, hits, stats);
+      origins, directions, tmin, tmax, count, threads,
+      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats, int n_threads) {
+        intersect_closest(target, rays, hits, stats, n_threads);
       },
       [](const std::vector<Hit>& hits) { return hits_to_dict(hits, std::is_same_v<Target, Structure>); });
 }
@@ -128,24 +129,24 @@ py::dict intersect_rays(const Target& target, py::handle origins, py::handle dir
 // Closest hits with each ray's status: `trace(rays, hits, statuses)` is a structure's or a scene's.
 template <class Trace>
 py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
-                       bool single_instance, Trace trace) {
+                       py::handle threads, bool single_instance, Trace trace) {
   std::vector<RayStatus> statuses;
   return trace_arrays<Hit>(
-      origins, directions, tmin, tmax, py::bool_(false),
-      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats*) {
+      origins, directions, tmin, tmax, py::bool_(false), threads,
+      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats*, int n_threads) {
         statuses.resize(rays.size());
-        trace(rays, hits, statuses);
+        trace(rays, hits, statuses, n_threads);
       },
       [&](const std::vector<Hit>& hits) { return statuses_to_dict(hits, statuses, single_instance); });
 }
 
 template <class Target>
 py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
-                       py::handle tmax, py::handle count) {
+                       py::handle tmax, py::handle count, py::handle threads) {
   return trace_arrays<uint8_t>(
-      origins, directions, tmin, tmax, count,
-      [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats) {
-        intersect_any(target, rays, occluded, stats);
+      origins, directions, tmin, tmax, count, threads,
+      [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats, int n_threads) {
+        intersect_any(target, rays, occluded, stats, n_threads);
       },
       occlusion_to_dict);
 }

@@ -68,9 +68,12 @@ py::dict story(const Structure& s, py::handle origin, py::handle direction, py::
 }
 
 // Closest hits plus each ray's status as an index into RAY_STATUSES.
-py::dict statuses(const Structure& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax) {
-  return status_arrays(origins, directions, tmin, tmax, true,
-                       [&](const auto& rays, auto& hits, auto& status) { intersect_with_status(s, rays, hits, status); });
+py::dict statuses(const Structure& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
+                  py::handle threads) {
+  return status_arrays(origins, directions, tmin, tmax, threads, true,
+                       [&](const auto& rays, auto& hits, auto& status, int n_threads) {
+                         intersect_with_status(s, rays, hits, status, n_threads);
+                       });
 }
 
 }  // namespace
@@ -96,12 +99,12 @@ void bind_core(py::module_& m) {
       .def_property_readonly("mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
                              "A copy of the mesh: (vertices, triangles).")
       .def("intersect", &intersect_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("boxes", &boxes)
       .def("statuses", &statuses, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit)
+           py::arg("tmax") = kNoLimit, py::arg("threads") = py::none())
       .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit);
 

@@ -111,18 +111,21 @@ void bind_scene(py::module_& m) {
              s.commit();
            })
       .def("intersect", &intersect_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("occluded", &occluded_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false)
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("clear_instances", &Scene::clear_instances)
       .def(
           "statuses",
-          [](const Scene& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax) {
-            return status_arrays(origins, directions, tmin, tmax, false, [&](const auto& rays, auto& hits, auto& status) {
-              intersect_with_status(s, rays, hits, status);
-            });
+          [](const Scene& s, py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
+             py::handle threads) {
+            return status_arrays(origins, directions, tmin, tmax, threads, false,
+                                 [&](const auto& rays, auto& hits, auto& status, int n_threads) {
+                                   intersect_with_status(s, rays, hits, status, n_threads);
+                                 });
           },
-          py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0, py::arg("tmax") = kNoLimit)
+          py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0, py::arg("tmax") = kNoLimit,
+          py::arg("threads") = py::none())
       .def(
           "story",
           [](const Scene& s, py::handle origin, py::handle direction, py::handle tmin, py::handle tmax) {

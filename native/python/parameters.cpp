@@ -73,6 +73,12 @@ int int32_parameter(py::handle value, const std::string& name) {
                                std::numeric_limits<int32_t>::max(), "an integer that fits in 32 bits"));
 }
 
+int threads_parameter(py::handle value) {
+  if (value.is_none()) return 0;
+  return int(integer_parameter(value, "threads", 0, std::numeric_limits<int32_t>::max(),
+                               "None or an integer >= 0 (None or 0: all cores)"));
+}
+
 uint32_t id_parameter(py::handle value, size_t count, const char* what) {
   const py::object index = as_index(value);
   if (!index) fail(what, "an integer id", value);

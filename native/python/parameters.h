@@ -26,6 +26,8 @@ int64_t integer_parameter(py::handle value, const std::string& name, int64_t lo,
 int int32_parameter(py::handle value, const std::string& name);
 // An index into a list of `count` items named `what` ("mesh", "instance").
 uint32_t id_parameter(py::handle value, size_t count, const char* what);
+// How many threads a batch query may use: None or 0 for all cores, else a positive integer.
+int threads_parameter(py::handle value);
 // A real number (int, float or numpy scalar; not bool); NaN and infinities pass through.
 double number_parameter(py::handle value, const std::string& name);
 // True or False (numpy.bool_ and the integers 0 and 1 as well).

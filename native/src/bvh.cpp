@@ -3,6 +3,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <cstdlib>
+#include <functional>
+#include <stdexcept>
 #include <string>
 
 namespace raylab {
@@ -11,7 +14,8 @@ namespace {
 
 BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& settings) {
   const size_t n = mesh.triangle_count();
-  // The binary build, then the 4-wide copy (nodes and packets of at most about 2x the triangles).
+  // The binary build, then the wide copy (packets of at most about 2x the triangles; 8-wide nodes are
+  // half as many as 4-wide ones and twice the size).
   const size_t needed = n * sizeof(Bounds) + binary_bvh_build_bytes(n) + 2 * n * sizeof(TrianglePacket) / 4 +
                         n * sizeof(Bvh4Node) / 2;
   if (needed > settings.memory_budget)
@@ -25,30 +29,34 @@ BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& se
   return build_binary_bvh(bounds, uint32_t(settings.leaf_size), 4);  // leaves are tested in packets of four
 }
 
-Bvh4Node empty_node() {
-  Bvh4Node node;
+template <int W>
+BvhWideNode<W> empty_node() {
+  BvhWideNode<W> node;
   for (int a = 0; a < 3; ++a)
-    for (int i = 0; i < 4; ++i) node.lo[a][i] = node.hi[a][i] = 0.0f;  // masked out by child == kInvalidIndex
-  for (int i = 0; i < 4; ++i) {
+    for (int i = 0; i < W; ++i) node.lo[a][i] = node.hi[a][i] = 0.0f;  // masked out by child == kInvalidIndex
+  for (int i = 0; i < W; ++i) {
     node.child[i] = kInvalidIndex;
     node.count[i] = 0;
   }
   return node;
 }
 
-// Collapses a binary BVH into a 4-wide one: each wide node takes the binary node's children and
+struct Leaf {
+  uint32_t first_prim, count, first_packet;
+};
+
+// Collapses a binary BVH into a W-wide one: each wide node takes the binary node's children and
 // keeps opening its largest inner child (by surface area, the likeliest to be entered) until it has
-// four. Leaves only get their packet range here; fill_packets writes them afterwards, in parallel.
+// W. Leaves only get their packet range here; fill_packets writes them afterwards, in parallel.
+template <int W>
 class Collapser {
  public:
-  struct Leaf {
-    uint32_t first_prim, count, first_packet;
-  };
+  using Node = BvhWideNode<W>;
 
-  Collapser(const BinaryBvh& binary, std::vector<Bvh4Node>& nodes) : binary_(binary), nodes_(nodes) {}
+  Collapser(const BinaryBvh& binary, std::vector<Node>& nodes) : binary_(binary), nodes_(nodes) {}
 
   uint32_t collapse(uint32_t b) {
-    uint32_t kids[4];
+    uint32_t kids[W];
     int n = 0;
     const BvhNode& top = binary_.nodes[b];
     if (top.leaf()) {
@@ -57,7 +65,7 @@ class Collapser {
       kids[n++] = top.index;
       kids[n++] = top.index + 1;
     }
-    while (n < 4) {
+    while (n < W) {
       int open = -1;
       float largest = -1.0f;
       for (int i = 0; i < n; ++i) {
@@ -76,11 +84,11 @@ class Collapser {
       ++n;
     }
     const uint32_t w = uint32_t(nodes_.size());
-    nodes_.push_back(empty_node());
+    nodes_.push_back(empty_node<W>());
     for (int i = 0; i < n; ++i) {
       const BvhNode& k = binary_.nodes[kids[i]];
       const uint32_t child = k.leaf() ? add_leaf(k) : collapse(kids[i]);
-      Bvh4Node& node = nodes_[w];  // after the recursion: nodes_ may have moved
+      Node& node = nodes_[w];  // after the recursion: nodes_ may have moved
       for (int a = 0; a < 3; ++a) {
         node.lo[a][i] = k.lo[a];
         node.hi[a][i] = k.hi[a];
@@ -103,13 +111,13 @@ class Collapser {
   }
 
   const BinaryBvh& binary_;
-  std::vector<Bvh4Node>& nodes_;
+  std::vector<Node>& nodes_;
   std::vector<Leaf> leaves_;
   uint32_t packet_count_ = 0;
 };
 
 // Copies each leaf's triangles into its packets; unused lanes repeat the packet's first triangle.
-void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Collapser::Leaf& leaf,
+void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf,
                   TrianglePacket* packets) {
   for (uint32_t p = 0; p < leaf.count; p += 4) {
     TrianglePacket& packet = packets[leaf.first_packet + p / 4];
@@ -125,52 +133,82 @@ void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Colla
   }
 }
 
-}  // namespace
-
-Bvh::Bvh(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std::move(mesh), settings) {
-  const BinaryBvh binary = build_over_triangles(*mesh_, settings_);
-  if (binary.nodes.empty()) return;
-  root_bounds_ = binary.nodes[0].bounds();
-  nodes_.reserve(binary.nodes.size() / 2 + 1);
-  Collapser collapser(binary, nodes_);
-  collapser.collapse(0);
-  nodes_.shrink_to_fit();
-  const std::vector<Collapser::Leaf>& leaves = collapser.leaves();
-  packet_count_ = collapser.packet_count();
-  packets_ = make_huge_array<TrianglePacket>(packet_count_);  // every packet is written below
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) fill_packets(*mesh_, binary, leaves[i], packets_.get());
-  });
-  leaf_packets_.resize(leaves.size());
-  for (size_t i = 0; i < leaves.size(); ++i) leaf_packets_[i] = leaves[i].first_packet;
+int chosen_width(int width) {
+  if (width == 8 && !cpu_has_avx2()) throw std::invalid_argument("bvh: an 8-wide BVH needs a CPU with AVX2");
+  if (width != 0 && width != 4 && width != 8) throw std::invalid_argument("bvh: width must be 0, 4 or 8");
+  if (width != 0) return width;
+  const char* forced = std::getenv("RAYLAB_BVH_WIDTH");
+  if (forced && std::string(forced) == "4") return 4;
+  return cpu_has_avx2() ? 8 : 4;
 }
 
-std::vector<BoxInfo> Bvh::boxes() const {
-  std::vector<BoxInfo> out(nodes_.size() + leaf_packets_.size());
-  if (nodes_.empty()) return out;
-  out[0] = {root_bounds_, 0, false, 0};
-  // Children follow their parent in nodes_, so a forward pass sets depths and a backward pass sums
+// Collapses `binary` into `nodes` and writes the leaves' packets; returns each leaf's first packet.
+template <int W>
+std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary,
+                                    std::vector<BvhWideNode<W>>& nodes, HugeArray<TrianglePacket>& packets,
+                                    size_t& packet_count) {
+  nodes.reserve(binary.nodes.size() / (W - 1) + 1);
+  Collapser<W> collapser(binary, nodes);
+  collapser.collapse(0);
+  nodes.shrink_to_fit();
+  const std::vector<Leaf>& leaves = collapser.leaves();
+  packet_count = collapser.packet_count();
+  packets = make_huge_array<TrianglePacket>(packet_count);  // every packet is written below
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) fill_packets(mesh, binary, leaves[i], packets.get());
+  });
+  std::vector<uint32_t> first_packets(leaves.size());
+  for (size_t i = 0; i < leaves.size(); ++i) first_packets[i] = leaves[i].first_packet;
+  return first_packets;
+}
+
+// The boxes of a wide tree; ids as Bvh::boxes says.
+template <int W>
+std::vector<BoxInfo> wide_boxes(const Bounds& root, const std::vector<BvhWideNode<W>>& nodes,
+                                size_t leaf_count, const std::function<uint32_t(uint32_t)>& leaf_id) {
+  std::vector<BoxInfo> out(nodes.size() + leaf_count);
+  if (nodes.empty()) return out;
+  out[0] = {root, 0, false, 0};
+  // Children follow their parent in nodes, so a forward pass sets depths and a backward pass sums
   // the triangles of each subtree.
-  for (size_t n = 0; n < nodes_.size(); ++n) {
-    const Bvh4Node& node = nodes_[n];
-    for (int i = 0; i < 4; ++i) {
+  for (size_t n = 0; n < nodes.size(); ++n) {
+    const BvhWideNode<W>& node = nodes[n];
+    for (int i = 0; i < W; ++i) {
       if (!node.used(i)) continue;
       const uint32_t id = node.leaf(i) ? leaf_id(node.child[i]) : node.child[i];
       out[id] = {node.bounds(i), out[n].depth + 1, node.leaf(i), node.count[i]};
     }
   }
-  for (size_t n = nodes_.size(); n-- > 0;) {
-    const Bvh4Node& node = nodes_[n];
+  for (size_t n = nodes.size(); n-- > 0;) {
+    const BvhWideNode<W>& node = nodes[n];
     uint32_t total = 0;
-    for (int i = 0; i < 4; ++i)
+    for (int i = 0; i < W; ++i)
       if (node.used(i)) total += node.leaf(i) ? node.count[i] : out[node.child[i]].triangle_count;
     out[n].triangle_count = total;
   }
   return out;
 }
 
+}  // namespace
+
+Bvh::Bvh(MeshPtr mesh, const BuildSettings& settings, int width)
+    : StructureBase(std::move(mesh), settings), width_(chosen_width(width)) {
+  const BinaryBvh binary = build_over_triangles(*mesh_, settings_);
+  if (binary.nodes.empty()) return;
+  root_bounds_ = binary.nodes[0].bounds();
+  leaf_packets_ = width_ == 8 ? collapse_into(*mesh_, binary, nodes8_, packets_, packet_count_)
+                              : collapse_into(*mesh_, binary, nodes4_, packets_, packet_count_);
+}
+
+std::vector<BoxInfo> Bvh::boxes() const {
+  const auto id = [this](uint32_t first_packet) { return leaf_id(first_packet); };
+  return width_ == 8 ? wide_boxes(root_bounds_, nodes8_, leaf_packets_.size(), id)
+                     : wide_boxes(root_bounds_, nodes4_, leaf_packets_.size(), id);
+}
+
 size_t Bvh::memory_bytes() const {
-  return nodes_.capacity() * sizeof(Bvh4Node) + packet_count_ * sizeof(TrianglePacket) +
+  return nodes4_.capacity() * sizeof(Bvh4Node) + nodes8_.capacity() * sizeof(Bvh8Node) +
+         packet_count_ * sizeof(TrianglePacket) +
          leaf_packets_.capacity() * sizeof(uint32_t);
 }
 

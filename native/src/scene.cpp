@@ -308,18 +308,19 @@ double Scene::build_seconds() const {
   return impl_->committed ? impl_->committed->build_seconds() : 0.0;
 }
 
-void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats) {
-  intersect_closest(*scene.snapshot(), rays, hits, stats);
+void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
+                       int threads) {
+  intersect_closest(*scene.snapshot(), rays, hits, stats, threads);
 }
 
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats) {
-  intersect_any(*scene.snapshot(), rays, occluded, stats);
+                   TraversalStats* stats, int threads) {
+  intersect_any(*scene.snapshot(), rays, occluded, stats, threads);
 }
 
 void intersect_with_status(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                           std::span<RayStatus> statuses) {
-  intersect_with_status(*scene.snapshot(), rays, hits, statuses);
+                           std::span<RayStatus> statuses, int threads) {
+  intersect_with_status(*scene.snapshot(), rays, hits, statuses, threads);
 }
 
 }  // namespace raylab

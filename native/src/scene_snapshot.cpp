@@ -274,20 +274,20 @@ size_t SceneSnapshot::memory_bytes() const {
 }
 
 void intersect_closest(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats) {
+                       TraversalStats* stats, int threads) {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) { scene.closest(rays[i], hits[i], st); });
+  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { scene.closest(rays[i], hits[i], st); });
 }
 
 void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats) {
+                   TraversalStats* stats, int threads) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); });
+  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); });
 }
 
 void intersect_with_status(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                           std::span<RayStatus> statuses) {
-  statuses_of_rays(rays, hits, statuses, [&](const Ray& ray, Hit& hit, TraversalStats& own) {
+                           std::span<RayStatus> statuses, int threads) {
+  statuses_of_rays(rays, hits, statuses, threads, [&](const Ray& ray, Hit& hit, TraversalStats& own) {
     return scene.closest(ray, hit, &own);
   });
 }

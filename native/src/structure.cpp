@@ -76,9 +76,9 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
 }
 
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats) {
+                       TraversalStats* stats, int threads) {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) {
+  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) {
     Hit h;
     if (st) s.closest(rays[i], h, *st);
     else s.closest(rays[i], h);
@@ -87,16 +87,16 @@ void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<
 }
 
 void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats) {
+                   TraversalStats* stats, int threads) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
-  for_each_ray(rays.size(), stats, [&](size_t i, TraversalStats* st) {
+  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) {
     occluded[i] = st ? s.any(rays[i], *st) : s.any(rays[i]);
   });
 }
 
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                           std::span<RayStatus> statuses) {
-  statuses_of_rays(rays, hits, statuses,
+                           std::span<RayStatus> statuses, int threads) {
+  statuses_of_rays(rays, hits, statuses, threads,
                    [&](const Ray& ray, Hit& hit, TraversalStats& own) { return s.closest(ray, hit, own); });
 }
 

@@ -1,4 +1,4 @@
-// intersect_watertight4 against intersect_watertight, lane by lane and bit for bit.
+// intersect_watertight4 and intersect_watertight8 against intersect_watertight, lane by lane and bit for bit.
 #include "raylab/bvh_simd.h"
 
 #include <gtest/gtest.h>
@@ -267,10 +267,21 @@ class Cases {
   glm::vec3 centre_{0.0f};
 };
 
+// The 8-lane test from code built for x86-64-v2: its own AVX2 function, called only after
+// cpu_has_avx2().
+__attribute__((target("avx2"), noinline)) int watertight8(const WatertightRay& w, const TrianglePacket& a,
+                                                         const TrianglePacket& b, float tmin, float tmax, float* t,
+                                                         float* u, float* v) {
+  const Watertight8Ray w8(w);
+  return intersect_watertight8(w8, a, b, 0xff, tmin, tmax, t, u, v);
+}
+
 }  // namespace
 
-// Every lane of intersect_watertight4 gives exactly what intersect_watertight gives for that
-// triangle: the same hit or miss and, on a hit, the same bits of t, u and v. About a million lanes
+// Every lane of intersect_watertight4, and of intersect_watertight8 where the CPU has AVX2, gives
+// exactly what intersect_watertight gives for that triangle: the same hit or miss and, on a hit, the
+// same bits of t, u and v (both SIMD tests send the lanes their filter passes to the scalar test's own
+// double-precision function, so the fallback is the scalar one). About a million lanes per test
 // over the cases above, each packet tested with a first window (tmin, tmax) and then, for every
 // lane the scalar test hits at t, with tmax = t, tmax just below t, tmin = t, tmin just below t and
 // (just below t, t): the windows where the SIMD test's pre-check on the corners' z range decides.
@@ -286,34 +297,52 @@ TEST(TriangleIntersection, SimdLanesGiveTheScalarResultBitForBit) {
         for (int axis = 0; axis < 3; ++axis) packet.p[corner][axis][lane] = c.p[lane][corner][axis];
       packet.triangle[lane] = uint32_t(lane);
     }
+    // The 8-lane AVX2 test gets this packet in lanes 0-3 and the same triangles reversed in lanes
+    // 4-7, so every triangle is also tested in another lane position.
+    TrianglePacket reversed;
+    for (int lane = 0; lane < 4; ++lane) {
+      for (int corner = 0; corner < 3; ++corner)
+        for (int axis = 0; axis < 3; ++axis) reversed.p[corner][axis][lane] = c.p[3 - lane][corner][axis];
+      reversed.triangle[lane] = uint32_t(3 - lane);
+    }
     const WatertightRay w(c.ray);
     const Watertight4Ray w4(w);
+    const bool avx2 = cpu_has_avx2();
     auto compare = [&](float tmin, float tmax, bool count) {
-      float t[4], u[4], v[4];
-      const int mask = intersect_watertight4(w4, packet, tmin, tmax, t, u, v);
-      for (int lane = 0; lane < 4; ++lane) {
+      float t[4], u[4], v[4], t8[8], u8[8], v8[8];
+      int mask = intersect_watertight4(w4, packet, tmin, tmax, t, u, v);
+      const int simd_lanes = avx2 ? 12 : 4;  // lanes 4-11: the 8-lane test's lanes 0-7
+      if (avx2) mask |= watertight8(w, packet, reversed, tmin, tmax, t8, u8, v8) << 4;
+      for (int simd_lane = 0; simd_lane < simd_lanes; ++simd_lane) {
+        const int lane = simd_lane < 8 ? simd_lane % 4 : 3 - (simd_lane - 8);  // the triangle's own index
         const glm::vec3* p = c.p[lane];
         TriangleHit h{};
         const bool hit = intersect_watertight(w, p[0], p[1], p[2], tmin, tmax, h);
         ++lanes;
-        hits += hit;
-        denormal_hits += hit && std::abs(h.t) < std::numeric_limits<float>::min();
-        if (count) {
+        if (simd_lane < 4) {  // the triangle's counts, once
+          hits += hit;
+          denormal_hits += hit && std::abs(h.t) < std::numeric_limits<float>::min();
+        }
+        if (count && simd_lane < 4) {
           const FilterReplay f = replay_filter(w, p[0], p[1], p[2]);
           to_double += f.to_double;
           float_leaks += f.to_double && !f.float_inside && hit;
         }
-        const bool simd_hit = (mask >> lane) & 1;
-        const bool same = simd_hit == hit && (!hit || (std::bit_cast<uint32_t>(t[lane]) == std::bit_cast<uint32_t>(h.t) &&
-                                                       std::bit_cast<uint32_t>(u[lane]) == std::bit_cast<uint32_t>(h.u) &&
-                                                       std::bit_cast<uint32_t>(v[lane]) == std::bit_cast<uint32_t>(h.v)));
+        const bool simd_hit = (mask >> simd_lane) & 1;
+        const float st = simd_lane < 4 ? t[lane] : t8[simd_lane - 4];
+        const float su = simd_lane < 4 ? u[lane] : u8[simd_lane - 4];
+        const float sv = simd_lane < 4 ? v[lane] : v8[simd_lane - 4];
+        const bool same = simd_hit == hit && (!hit || (std::bit_cast<uint32_t>(st) == std::bit_cast<uint32_t>(h.t) &&
+                                                       std::bit_cast<uint32_t>(su) == std::bit_cast<uint32_t>(h.u) &&
+                                                       std::bit_cast<uint32_t>(sv) == std::bit_cast<uint32_t>(h.v)));
         if (same) continue;
         if (++mismatches > 5) continue;
-        report << "case " << n << " lane " << lane << ": ray origin " << hex(c.ray.origin) << " direction "
+        report << "case " << n << (simd_lane < 4 ? " 4-lane test lane " : " 8-lane test lane ")
+               << (simd_lane < 4 ? simd_lane : simd_lane - 4) << ": ray origin " << hex(c.ray.origin) << " direction "
                << hex(c.ray.direction) << ", triangle " << hex(p[0]) << " " << hex(p[1]) << " " << hex(p[2])
                << ", tmin " << hex(tmin) << " tmax " << hex(tmax) << ": scalar "
                << (hit ? "hit t " + hex(h.t) + " u " + hex(h.u) + " v " + hex(h.v) : std::string("miss")) << ", SIMD "
-               << (simd_hit ? "hit t " + hex(t[lane]) + " u " + hex(u[lane]) + " v " + hex(v[lane]) : std::string("miss"))
+               << (simd_hit ? "hit t " + hex(st) + " u " + hex(su) + " v " + hex(sv) : std::string("miss"))
                << "\n";
       }
     };

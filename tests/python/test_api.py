@@ -470,3 +470,27 @@ def test_batch_statuses_say_what_each_rays_story_says(sphere, structure):
     assert [raylab.RAY_STATUSES[k] for k in batch.status] == [st.status for st in stories]
     seen = {raylab.RAY_STATUSES[k] for k in batch.status}
     assert "hit_object" in seen and ("missed_root" in seen or structure == "none")
+
+
+@pytest.mark.parametrize("structure", STRUCTURES)
+def test_answers_and_counters_are_the_same_on_any_number_of_threads(structure):
+    """threads= changes who traces, never what: hits, occlusion, statuses and the summed counters of
+    threads=1, threads=2 and the default (all cores) agree bit for bit, for a Structure and a Scene."""
+    vertices, triangles = load("bunny")
+    o, d, _ = box_rays(vertices, 3000, np.random.default_rng(5))
+    s = raylab.build(vertices, triangles, structure=structure)
+    scene = raylab.Scene(structure=structure)
+    scene.add_instance(scene.add_mesh(vertices, triangles), np.eye(4))
+    scene.commit()
+    for target in (s, scene):
+        closest = [target.intersect(o, d, count=True, threads=n) for n in (1, 2, None, 0)]
+        anyhit = [target.occluded(o, d, count=True, threads=n) for n in (1, 2, None, np.int64(2))]
+        for h in closest[1:]:
+            for field in ("t", "triangle", "u", "v", "instance", "hit"):
+                assert np.array_equal(getattr(h, field), getattr(closest[0], field))
+            assert h.stats == closest[0].stats
+        for a in anyhit[1:]:
+            assert np.array_equal(a.hit, anyhit[0].hit) and a.stats == anyhit[0].stats
+        assert closest[0].hit.any() and not closest[0].hit.all()
+    one, two = s.statuses(o, d, threads=1), s.statuses(o, d, threads=2)
+    assert np.array_equal(one.status, two.status) and np.array_equal(one.t, two.t)

@@ -67,6 +67,7 @@ def test_a_bad_build_setting_names_the_parameter(entry, case):
     assert_short_value_error(lambda: SETTINGS_CALLS[entry](**keywords), message)
 
 
+THREADS = "threads must be None or an integer >= 0 (None or 0: all cores), got "
 # (target, method, arguments, message) for the query parameters of structures and scenes.
 QUERIES = {
     "intersect tmin None": (structure, "intersect", (ORIGINS, DIRECTIONS, None), "tmin must be a real number, got None"),
@@ -82,6 +83,17 @@ QUERIES = {
                              "got a value of type list"),
     "scene occluded count": (scene, "occluded", (ORIGINS, DIRECTIONS, 0.0, 1.0, 2),
                              "count must be True or False, got 2"),
+    "intersect threads -1": (structure, "intersect", (ORIGINS, DIRECTIONS, 0.0, 1.0, False, -1),
+                             THREADS + "-1"),
+    "intersect threads float": (structure, "intersect", (ORIGINS, DIRECTIONS, 0.0, 1.0, False, 2.0),
+                                THREADS + "2.0"),
+    "occluded threads str": (structure, "occluded", (ORIGINS, DIRECTIONS, 0.0, 1.0, False, "2"),
+                             THREADS + "'2'"),
+    "statuses threads bool": (structure, "statuses", (ORIGINS, DIRECTIONS, 0.0, 1.0, True), THREADS + "True"),
+    "scene intersect threads -3": (scene, "intersect", (ORIGINS, DIRECTIONS, 0.0, 1.0, False, -3),
+                                   THREADS + "-3"),
+    "scene occluded threads 2**40": (scene, "occluded", (ORIGINS, DIRECTIONS, 0.0, 1.0, False, 2 ** 40),
+                                     THREADS + "1099511627776"),
 }
 
 

@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <cstddef>
 #include <span>
@@ -13,31 +14,43 @@
 
 namespace raylab {
 
-// Runs `query(i, stats_or_null)` for every ray index in parallel (TBB). With `stats`, each thread
-// counts into its own TraversalStats and the totals are added to *stats at the end.
+// Runs `query(i, stats_or_null)` for every ray index in parallel (TBB), on at most `threads` threads
+// (0: all cores), as the renderer's RenderSettings::threads. With `stats`, each thread counts into its
+// own TraversalStats and the totals are added to *stats at the end. Every ray's answer is the same
+// on any number of threads: only the split of the work changes.
 template <class Query>
-void for_each_ray(size_t n, TraversalStats* stats, Query query) {
-  if (!stats) {
+void for_each_ray(size_t n, int threads, TraversalStats* stats, Query query) {
+  const auto run = [&] {
+    if (!stats) {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) query(i, nullptr);
+      });
+      return;
+    }
+    tbb::combinable<TraversalStats> local;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t i = r.begin(); i != r.end(); ++i) query(i, nullptr);
+      TraversalStats& s = local.local();
+      for (size_t i = r.begin(); i != r.end(); ++i) query(i, &s);
     });
-    return;
+    local.combine_each([&](const TraversalStats& s) { *stats += s; });
+  };
+  if (threads < 0) throw std::invalid_argument("threads must be >= 0 (0: all cores)");
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
+    arena.execute(run);
+  } else {
+    run();
   }
-  tbb::combinable<TraversalStats> local;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-    TraversalStats& s = local.local();
-    for (size_t i = r.begin(); i != r.end(); ++i) query(i, &s);
-  });
-  local.combine_each([&](const TraversalStats& s) { *stats += s; });
 }
 
 // Closest hits and each ray's status, derived from that ray's own counters as its story would be
 // (ray_status): `closest(ray, hit, own_stats)` is a structure's or a scene's counted query.
 template <class Closest>
-void statuses_of_rays(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayStatus> statuses, Closest closest) {
+void statuses_of_rays(std::span<const Ray> rays, std::span<Hit> hits, std::span<RayStatus> statuses, int threads,
+                      Closest closest) {
   if (hits.size() != rays.size() || statuses.size() != rays.size())
     throw std::invalid_argument("hits, statuses and rays differ in length");
-  for_each_ray(rays.size(), nullptr, [&](size_t i, TraversalStats*) {
+  for_each_ray(rays.size(), threads, nullptr, [&](size_t i, TraversalStats*) {
     TraversalStats own;  // this ray's counters alone
     Hit h;
     const bool hit = closest(rays[i], h, own);

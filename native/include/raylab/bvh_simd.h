@@ -1,4 +1,5 @@
-// The SSE kernels of the 4-wide BVH: one ray against four boxes and against four triangles at once.
+// The SIMD kernels of the wide BVH: one ray against four boxes (SSE) or eight (AVX2), and against four
+// triangles at once (SSE).
 // The box kernel is a lane-wise transcription of intersect_box, with the same operations in the same
 // order and the same NaN handling; the triangle kernel is intersect_watertight's float filter, and
 // the lanes it cannot reject are decided by the same double-precision function as the scalar test.
@@ -14,15 +15,19 @@
 
 namespace raylab {
 
-// Four children of a 4-wide node (128 bytes, two cache lines). A leaf child has count > 0 and its
-// triangles in packets[child .. child + ceil(count / 4)); an inner child has count 0 and its node
-// index in `child`. Unused slots have count 0 and child kInvalidIndex; no box value is missed by
-// every ray under IEEE rules (a ray with tmax = inf reaches +inf), so the test masks them out.
-struct alignas(64) Bvh4Node {
-  float lo[3][4];  // [axis][child]
-  float hi[3][4];
-  uint32_t child[4];
-  uint32_t count[4];
+// The children of a W-wide node (4: 128 bytes, two cache lines; 8: 256 bytes, four). A leaf child
+// has count > 0 and its triangles in packets[child .. child + ceil(count / 4)); an inner child has
+// count 0 and its node index in `child`. Unused slots have count 0 and child kInvalidIndex; no box
+// value is missed by every ray under IEEE rules (a ray with tmax = inf reaches +inf), so the test
+// masks them out. Bounds are plain floats, not quantised: the exactness pad (BoxRay) is applied to the
+// stored box as the scalar test applies it, which a quantised box would first have to round outwards.
+template <int W>
+struct alignas(64) BvhWideNode {
+  static constexpr int kWidth = W;
+  float lo[3][W];  // [axis][child]
+  float hi[3][W];
+  uint32_t child[W];
+  uint32_t count[W];
 
   bool used(int i) const { return count[i] != 0 || child[i] != kInvalidIndex; }
   bool leaf(int i) const { return count[i] != 0; }
@@ -30,7 +35,10 @@ struct alignas(64) Bvh4Node {
     return {{lo[0][i], lo[1][i], lo[2][i]}, {hi[0][i], hi[1][i], hi[2][i]}};
   }
 };
+using Bvh4Node = BvhWideNode<4>;
+using Bvh8Node = BvhWideNode<8>;
 static_assert(sizeof(Bvh4Node) == 128);
+static_assert(sizeof(Bvh8Node) == 256);
 
 // Four triangles' vertices, structure of arrays, in leaf order. Unused lanes repeat the packet's
 // first triangle and carry kInvalidIndex; the leaf's count says which lanes are real.
@@ -75,6 +83,52 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
   const __m128i unused = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(node.child)),
                                          _mm_set1_epi32(int(kInvalidIndex)));
   return _mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(unused), _mm_cmple_ps(t_near, t_far)));
+}
+
+// The 8-wide node test (AVX2), chosen at run time where the CPU has AVX2 (cpu_has_avx2): the binary
+// stays x86-64-v2. Only "avx2", never "fma": with FMA enabled GCC may contract a product and a sum
+// into one rounding (-ffp-contract=fast is its default), and every lane must round as the scalar
+// test does.
+struct Box8Ray {
+  __m256 origin[3], inv_dir[3];
+  __m256 tmin, pad;
+
+  __attribute__((target("avx2"))) explicit Box8Ray(const BoxRay& r)
+      : tmin(_mm256_set1_ps(r.tmin)), pad(_mm256_set1_ps(r.pad)) {
+    for (int a = 0; a < 3; ++a) {
+      origin[a] = _mm256_set1_ps(r.origin[a]);
+      inv_dir[a] = _mm256_set1_ps(r.inv_dir[a]);
+    }
+  }
+};
+
+// intersect_box4 on eight boxes, operation for operation (the AVX min, max and ordered compare treat
+// NaN as the SSE ones do). Returns the hit mask and writes the entry distances.
+__attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, const Box8Ray& r, float tmax,
+                                                          float t_entry[8]) {
+  __m256 t_near = r.tmin;
+  __m256 t_far = _mm256_set1_ps(tmax);
+  const __m256 far_scale = _mm256_set1_ps(kBoxFarScale);
+  for (int a = 0; a < 3; ++a) {
+    const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_load_ps(node.lo[a]), r.origin[a]), r.pad),
+                                    r.inv_dir[a]);
+    const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_load_ps(node.hi[a]), r.origin[a]), r.pad),
+                                    r.inv_dir[a]);
+    const __m256 near = _mm256_min_ps(t1, t0);
+    const __m256 far = _mm256_mul_ps(_mm256_max_ps(t0, t1), far_scale);
+    t_near = _mm256_max_ps(near, t_near);
+    t_far = _mm256_min_ps(far, t_far);
+  }
+  _mm256_storeu_ps(t_entry, t_near);
+  const __m256i unused = _mm256_cmpeq_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(node.child)),
+                                            _mm256_set1_epi32(int(kInvalidIndex)));
+  return _mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(unused), _mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ)));
+}
+
+// Whether this CPU runs the AVX2 kernels (asked once).
+inline bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
 }
 
 // The per-ray constants of the 4-triangle watertight test.
@@ -142,6 +196,91 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
     const glm::vec3 p0(packet.p[0][0][lane], packet.p[0][1][lane], packet.p[0][2][lane]);
     const glm::vec3 p1(packet.p[1][0][lane], packet.p[1][1][lane], packet.p[1][2][lane]);
     const glm::vec3 p2(packet.p[2][0][lane], packet.p[2][1][lane], packet.p[2][2][lane]);
+    TriangleHit h;
+    if (intersect_watertight_exact(r.ray, p0, p1, p2, tmin, tmax, h)) {
+      mask |= 1 << lane;
+      t_out[lane] = h.t;
+      u_out[lane] = h.u;
+      v_out[lane] = h.v;
+    }
+  }
+  return mask;
+}
+
+// The per-ray constants of the 8-triangle watertight test (AVX2).
+struct Watertight8Ray {
+  const WatertightRay& ray;
+  __m256 origin[3];  // indexed by axis
+  __m256 sx, sy, sz;
+
+  __attribute__((target("avx2"))) explicit Watertight8Ray(const WatertightRay& r)
+      : ray(r), sx(_mm256_set1_ps(r.sx)), sy(_mm256_set1_ps(r.sy)), sz(_mm256_set1_ps(r.sz)) {
+    for (int a = 0; a < 3; ++a) origin[a] = _mm256_set1_ps(r.origin[a]);
+  }
+};
+
+// One coordinate of two packets' four triangles: `a`'s in lanes 0-3, `b`'s in lanes 4-7.
+__attribute__((target("avx2"))) inline __m256 load_packet_pair(const TrianglePacket& a, const TrianglePacket& b,
+                                                               int corner, int axis) {
+  return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(a.p[corner][axis])), _mm_load_ps(b.p[corner][axis]), 1);
+}
+
+// intersect_watertight4 on two packets at once: lanes 0-3 are packet `a`'s, lanes 4-7 packet `b`'s
+// (two consecutive packets of a leaf: the layout stays the 4-wide one). The same operations in the
+// same order on eight lanes, then intersect_watertight_exact on each lane of `lanes` (a bit mask)
+// the filter cannot reject. Returns the mask of lanes hit with tmin < t <= tmax and their t, u, v.
+__attribute__((target("avx2"))) inline int intersect_watertight8(const Watertight8Ray& r, const TrianglePacket& a,
+                                                                const TrianglePacket& b, int lanes, float tmin,
+                                                                float tmax, float t_out[8], float u_out[8],
+                                                                float v_out[8]) {
+  const int kx = r.ray.kx, ky = r.ray.ky, kz = r.ray.kz;
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  __m256 x[3], y[3], ez[3], az = _mm256_setzero_ps();
+  for (int c = 0; c < 3; ++c) {
+    const __m256 ex = _mm256_sub_ps(load_packet_pair(a, b, c, kx), r.origin[kx]);
+    const __m256 ey = _mm256_sub_ps(load_packet_pair(a, b, c, ky), r.origin[ky]);
+    ez[c] = _mm256_sub_ps(load_packet_pair(a, b, c, kz), r.origin[kz]);
+    x[c] = _mm256_sub_ps(ex, _mm256_mul_ps(r.sx, ez[c]));
+    y[c] = _mm256_sub_ps(ey, _mm256_mul_ps(r.sy, ez[c]));
+    az = _mm256_max_ps(az, _mm256_andnot_ps(sign, ez[c]));
+  }
+  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(x[2], y[1]), _mm256_mul_ps(y[2], x[1]));
+  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(x[0], y[2]), _mm256_mul_ps(y[0], x[2]));
+  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(x[1], y[0]), _mm256_mul_ps(y[1], x[0]));
+  const __m256 mx = _mm256_max_ps(_mm256_andnot_ps(sign, x[0]),
+                                  _mm256_max_ps(_mm256_andnot_ps(sign, x[1]), _mm256_andnot_ps(sign, x[2])));
+  const __m256 my = _mm256_max_ps(_mm256_andnot_ps(sign, y[0]),
+                                  _mm256_max_ps(_mm256_andnot_ps(sign, y[1]), _mm256_andnot_ps(sign, y[2])));
+  const __m256 s = _mm256_add_ps(mx, my);
+  const __m256 bound = _mm256_add_ps(
+      _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(32.0f * 0x1p-24f), _mm256_add_ps(s, _mm256_mul_ps(_mm256_set1_ps(2.0f), az))),
+                    s),
+      _mm256_set1_ps(0x1p-126f));
+  const __m256 nbound = _mm256_xor_ps(bound, sign);
+  const __m256 negative = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(u, nbound, _CMP_LT_OQ), _mm256_cmp_ps(v, nbound, _CMP_LT_OQ)),
+                                       _mm256_cmp_ps(w, nbound, _CMP_LT_OQ));
+  const __m256 positive = _mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(u, bound, _CMP_GT_OQ), _mm256_cmp_ps(v, bound, _CMP_GT_OQ)),
+                                       _mm256_cmp_ps(w, bound, _CMP_GT_OQ));
+  int candidates = ~_mm256_movemask_ps(_mm256_and_ps(negative, positive)) & lanes;
+  if (candidates == 0) return 0;
+  // The z-range pre-check of intersect_watertight4, with its margins.
+  const __m256 z0 = _mm256_mul_ps(r.sz, ez[0]), z1 = _mm256_mul_ps(r.sz, ez[1]), z2 = _mm256_mul_ps(r.sz, ez[2]);
+  const __m256 zlo = _mm256_min_ps(z0, _mm256_min_ps(z1, z2)), zhi = _mm256_max_ps(z0, _mm256_max_ps(z1, z2));
+  const __m256 margin = _mm256_set1_ps(0x1p-20f), smallest = _mm256_set1_ps(0x1p-126f);
+  const __m256 below =
+      _mm256_sub_ps(zlo, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zlo)), smallest));
+  const __m256 above =
+      _mm256_add_ps(zhi, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zhi)), smallest));
+  candidates &= ~_mm256_movemask_ps(_mm256_or_ps(_mm256_cmp_ps(below, _mm256_set1_ps(tmax), _CMP_GT_OQ),
+                                                 _mm256_cmp_ps(above, _mm256_set1_ps(tmin), _CMP_LE_OQ)));
+  int mask = 0;
+  for (; candidates != 0; candidates &= candidates - 1) {
+    const int lane = __builtin_ctz(unsigned(candidates));
+    const TrianglePacket& packet = lane < 4 ? a : b;
+    const int l = lane & 3;
+    const glm::vec3 p0(packet.p[0][0][l], packet.p[0][1][l], packet.p[0][2][l]);
+    const glm::vec3 p1(packet.p[1][0][l], packet.p[1][1][l], packet.p[1][2][l]);
+    const glm::vec3 p2(packet.p[2][0][l], packet.p[2][1][l], packet.p[2][2][l]);
     TriangleHit h;
     if (intersect_watertight_exact(r.ray, p0, p1, p2, tmin, tmax, h)) {
       mask |= 1 << lane;

@@ -74,11 +74,13 @@ class Scene {
 // Throws std::invalid_argument unless `corner_normals` holds exactly 3 finite normals per triangle of `mesh`.
 void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec3> corner_normals);
 
-// Batch queries over one snapshot of the scene, parallel over rays (TBB). `stats` may be null.
-void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats);
+// Batch queries over one snapshot of the scene, parallel over rays (TBB) on at most `threads` threads
+// (0: all cores). `stats` may be null.
+void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
+                       int threads = 0);
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats);
+                   TraversalStats* stats, int threads = 0);
 void intersect_with_status(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                           std::span<RayStatus> statuses);
+                           std::span<RayStatus> statuses, int threads = 0);
 
 }  // namespace raylab

@@ -111,13 +111,14 @@ using SceneSnapshotPtr = std::shared_ptr<const SceneSnapshot>;
 // top level cull a true hit.
 Bounds transform_bounds(const Bounds& b, const glm::mat4& m);
 
-// Batch queries over one snapshot, parallel over rays (TBB). `stats` may be null.
+// Batch queries over one snapshot, parallel over rays (TBB) on at most `threads` threads (0: all
+// cores). `stats` may be null.
 void intersect_closest(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats);
+                       TraversalStats* stats, int threads = 0);
 void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats);
+                   TraversalStats* stats, int threads = 0);
 // Closest hits and each ray's status, what its story would say: the probe's fan.
 void intersect_with_status(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                           std::span<RayStatus> statuses);
+                           std::span<RayStatus> statuses, int threads = 0);
 
 }  // namespace raylab

@@ -138,14 +138,15 @@ class StructureBase : public Structure {
 // Builds the structure named by settings.kind over `mesh` (validated first) and times the build.
 std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& settings);
 
-// Batch queries, parallel over rays (TBB). `stats` may be null: then nothing is counted.
+// Batch queries, parallel over rays (TBB) on at most `threads` threads (0: all cores). `stats` may be
+// null: then nothing is counted.
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats);
+                       TraversalStats* stats, int threads = 0);
 void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats);
+                   TraversalStats* stats, int threads = 0);
 // Closest hits and each ray's status (what its story would say, without recording the story): the
 // probe's fan of thousands of rays.
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                           std::span<RayStatus> statuses);
+                           std::span<RayStatus> statuses, int threads = 0);
 
 }  // namespace raylab
