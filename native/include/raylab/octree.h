@@ -2,8 +2,10 @@
 // splits into its 8 octants while depth < max_depth and it holds more than leaf_size triangles; a
 // triangle goes to every octant it truly overlaps (separating-axis test, triangle_box_overlap.h),
 // never by "a vertex lies inside", so a large triangle is found in every leaf it crosses. Empty
-// octants are not allocated. Traversal visits children front to back and stops as soon as the
-// closest hit lies before the next child's entry. Built in src/octree.cpp.
+// octants are not allocated. max_depth auto (the default) derives the depth from the triangle count
+// and the memory budget (auto_max_depth). Traversal visits children front to back, stops as soon as
+// the closest hit lies before the next child's entry, and tests a triangle met in several leaves once
+// per ray (mailbox.h). Built in src/octree.cpp.
 #pragma once
 
 #include "raylab/box_intersection.h"
@@ -53,21 +55,32 @@ class Octree final : public StructureBase<Octree> {
   // BuildSettings::validate's limit on max_depth; it sizes the traversal stack.
   static constexpr int kMaxDepth = BuildSettings::kMaxDepthLimit;
 
-  // Throws BuildError as soon as the build would need more than settings.memory_budget bytes.
+  // Levels added to log4(triangles / leaf_size) by max_depth auto (auto_max_depth).
+  static constexpr int kAutoDepthMargin = 2;
+
+  // Throws BuildError as soon as the build would need more than settings.memory_budget bytes; with
+  // max_depth auto (BuildSettings::kAutoDepth) it ends the tree at the last level that fits instead.
   Octree(MeshPtr mesh, const BuildSettings& settings);
+
+  // The depth max_depth auto allows a mesh of `triangle_count` triangles before the budget is
+  // counted: log4(triangle_count / leaf_size), rounded up, plus kAutoDepthMargin, at most kMaxDepth.
+  static int auto_max_depth(size_t triangle_count, int leaf_size);
+  // The depth limit the tree was built with: settings().max_depth, or what auto chose (lowered to
+  // the last level that fitted the memory budget, where that stopped the build).
+  int max_depth() const { return max_depth_; }
 
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
     return closest_over_leaves(*mesh_, settings_.triangle_test, ray, hit, record, [&](auto limit, auto visit) {
       walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(triangles_of(leaf)); });
-    });
+    }, Mailbox{});
   }
 
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
     return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, [&](auto limit, auto visit) {
       walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(triangles_of(leaf)); });
-    });
+    }, Mailbox{});
   }
 
   // Every node in index order (parents before children). A leaf's triangle_count is its own; an
@@ -142,6 +155,8 @@ class Octree final : public StructureBase<Octree> {
   void build();
 
   Bounds root_;
+  bool automatic_depth_ = false;
+  int max_depth_ = 0;
   std::vector<OctreeNode> nodes_;     // breadth first: node 0 is the root
   std::vector<uint32_t> triangles_;   // the leaves' runs, one after another
 };
