@@ -61,6 +61,8 @@ struct OctreeNode {
 // pad, the NaN rules and the story's boxes are unchanged: the children are still box-tested, only
 // without repeating the work they share. (Revelles' successor table, which enters only the children
 // the ray pierces, would visit fewer than the padded boxes the exactness contract requires.)
+// Measured on one core under load, octree / BVH camera rays, median of 9 interleaved pairs: bunny.obj
+// 0.19 -> 0.25, dragon.obj 0.18 -> 0.23, koala.obj 0.15 -> 0.17 (max_depth auto).
 class OctantSlabs {
  public:
   [[gnu::always_inline]] OctantSlabs(const Bounds& box, const BoxRay& r) {
