@@ -182,7 +182,8 @@ def trace_round(rng, round_, findings, counts):
     if not np.isfinite(vertices32).all():
         return
     test = "moller_trumbore" if rng.random() < 0.25 else "watertight"
-    settings = dict(max_depth=int(rng.integers(0, 9)), leaf_size=int(rng.integers(1, 17)), triangle_test=test)
+    depth = "auto" if rng.random() < 0.3 else int(rng.integers(0, 9))  # "auto": the octree's default
+    settings = dict(max_depth=depth, leaf_size=int(rng.integers(1, 17)), triangle_test=test)
     try:
         structures = {s: raylab.build(vertices32, triangles, structure=s, **settings) for s in ("none", *ACCELERATED)}
     except ValueError as error:  # the contract's refusals (e.g. coordinates too large) are fine

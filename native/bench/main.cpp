@@ -109,7 +109,8 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--embree", o.embree_qualities, "Embree's build qualities, comma-separated")
       ->delimiter(',')
       ->check(CLI::IsMember(kEmbreeQualities));
-  app.add_option("--max-depth", o.max_depth, "octree: the deepest level");
+  app.add_option("--max-depth", o.max_depth,
+                 "octree: the deepest level, or " + std::to_string(raylab::BuildSettings::kAutoDepth) + " for auto");
   app.add_option("--leaf-size", o.leaf_size, "octree and bvh: triangles per leaf");
 }
 
@@ -408,7 +409,10 @@ int run(const Options& o) {
       {"build_repetitions", o.build_reps},
       {"hardware_threads", std::thread::hardware_concurrency()},
       {"embree_version", RTC_VERSION_STRING},
-      {"octree", {{"max_depth", o.max_depth}, {"leaf_size", o.leaf_size}}},
+      {"octree",
+       {{"max_depth", o.max_depth == raylab::BuildSettings::kAutoDepth ? Json(raylab::BuildSettings::kAutoDepthName)
+                                                                       : Json(o.max_depth)},
+        {"leaf_size", o.leaf_size}}},
       {"tracers", std::move(tracers)},
   };
   // A path or message that is not UTF-8 gets U+FFFD rather than losing the whole run to an exception.

@@ -127,6 +127,21 @@ std::string names_of(const Table& table) {
   return out;
 }
 
+// "auto" or a whole number >= 0 (the upper limit is validate()'s): BuildSettings::max_depth.
+int max_depth_parameter(py::handle value) {
+  const std::string accepted = "'" + std::string(BuildSettings::kAutoDepthName) + "' or an integer";
+  if (py::isinstance<py::str>(value)) {
+    if (value.cast<std::string>() == BuildSettings::kAutoDepthName) return BuildSettings::kAutoDepth;
+    throw std::invalid_argument("max_depth must be " + accepted + ", got " + describe(value));
+  }
+  const int depth = int32_parameter(value, "max_depth");
+  // -1 is kAutoDepth inside; from Python only the name means auto.
+  if (depth < 0)
+    throw std::invalid_argument("max_depth must be >= 0 or '" + std::string(BuildSettings::kAutoDepthName) +
+                                "', got " + std::to_string(depth));
+  return depth;
+}
+
 }  // namespace
 
 BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
@@ -134,7 +149,7 @@ BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth
   BuildSettings s;
   static const std::string structures = names_of(structure_kinds()), tests = names_of(kTriangleTests);
   s.kind = structure_kind_from_name(str_parameter(structure, "structure", structures.c_str()));
-  s.max_depth = int32_parameter(max_depth, "max_depth");
+  s.max_depth = max_depth_parameter(max_depth);
   s.leaf_size = int32_parameter(leaf_size, "leaf_size");
   s.triangle_test = triangle_test_from_name(str_parameter(triangle_test_name, "triangle_test", tests.c_str()));
   if (!memory_budget.is_none()) {

@@ -29,9 +29,16 @@ MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles);
 // unknown name or bad value raises a ValueError naming the keyword).
 // The build settings as keyword arguments with BuildSettings' own defaults, for every binding that
 // takes them (build, build_file, Scene, Scene.set_settings): `def(f, leading args..., settings...)`.
+// max_depth as Python sees it: "auto" or a whole number.
+inline py::object max_depth_object(int max_depth) {
+  if (max_depth == BuildSettings::kAutoDepth) return py::str(BuildSettings::kAutoDepthName);
+  return py::int_(max_depth);
+}
+
 inline auto settings_keywords() {
   const BuildSettings d;
-  return std::make_tuple(py::arg("structure") = structure_kind_name(d.kind), py::arg("max_depth") = d.max_depth,
+  return std::make_tuple(py::arg("structure") = structure_kind_name(d.kind),
+                         py::arg("max_depth") = max_depth_object(d.max_depth),
                          py::arg("leaf_size") = d.leaf_size,
                          py::arg("triangle_test") = triangle_test_name(d.triangle_test),
                          py::arg("memory_budget") = py::none());

@@ -92,7 +92,7 @@ void bind_core(py::module_& m) {
       .def_property_readonly("memory_bytes", &Structure::memory_bytes)
       .def_property_readonly("triangle_count", [](const Structure& s) { return s.mesh().triangle_count(); })
       .def_property_readonly("vertex_count", [](const Structure& s) { return s.mesh().vertices.size(); })
-      .def_property_readonly("max_depth", [](const Structure& s) { return s.settings().max_depth; })
+      .def_property_readonly("max_depth", [](const Structure& s) { return max_depth_object(s.settings().max_depth); })
       .def_property_readonly("leaf_size", [](const Structure& s) { return s.settings().leaf_size; })
       .def_property_readonly("triangle_test",
                              [](const Structure& s) { return triangle_test_name(s.settings().triangle_test); })

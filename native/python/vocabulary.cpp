@@ -2,6 +2,7 @@
 // the triangle tests, the counters, the ray statuses and the build defaults. api.py, the add-on's menus and panels, the
 // compare table, the benchmark and the tests read these.
 #include "bindings.h"
+#include "core_arrays.h"
 
 #include "raylab/structure.h"
 #include "raylab/traversal_record.h"
@@ -60,7 +61,7 @@ void bind_vocabulary(py::module_& m) {
   const BuildSettings defaults;
   py::dict d;
   d["structure"] = structure_kind_name(defaults.kind);
-  d["max_depth"] = defaults.max_depth;
+  d["max_depth"] = max_depth_object(defaults.max_depth);
   d["leaf_size"] = defaults.leaf_size;
   d["triangle_test"] = triangle_test_name(defaults.triangle_test);
   d["memory_budget"] = defaults.memory_budget;

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <bit>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 #include <new>
 #include <numeric>
@@ -119,10 +120,10 @@ struct SubtreeCounts {
   bool over_cap() const { return final_bytes.load(std::memory_order_relaxed) > cap; }
 };
 
-void count_subtree(const TriangleMesh& mesh, const BuildSettings& settings, const Bounds& box,
+void count_subtree(const TriangleMesh& mesh, int max_depth, int leaf_size, const Bounds& box,
                    std::vector<uint32_t> triangles, int depth, SubtreeCounts& counts) {
   if (counts.over_cap()) return;
-  const bool splits = depth < settings.max_depth && triangles.size() > size_t(settings.leaf_size);
+  const bool splits = depth < max_depth && triangles.size() > size_t(leaf_size);
   counts.nodes[depth] += 1;
   counts.refs[depth] += triangles.size();
   if (!splits) {
@@ -138,7 +139,8 @@ void count_subtree(const TriangleMesh& mesh, const BuildSettings& settings, cons
   triangles = {};  // give the memory back before going deeper
   for (int octant = 0; octant < 8; ++octant)
     if (!children[octant].empty())
-      count_subtree(mesh, settings, octant_bounds(box, octant), std::move(children[octant]), depth + 1, counts);
+      count_subtree(mesh, max_depth, leaf_size, octant_bounds(box, octant), std::move(children[octant]), depth + 1,
+                    counts);
 }
 
 }  // namespace
@@ -146,9 +148,23 @@ void count_subtree(const TriangleMesh& mesh, const BuildSettings& settings, cons
 Octree::Octree(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std::move(mesh), settings) {
   if (settings.max_depth > kMaxDepth)  // the traversal stack is sized for kMaxDepth
     throw std::invalid_argument("octree max_depth must be <= " + std::to_string(kMaxDepth));
+  automatic_depth_ = settings.max_depth == BuildSettings::kAutoDepth;
+  max_depth_ = automatic_depth_ ? auto_max_depth(mesh_->triangle_count(), settings.leaf_size) : settings.max_depth;
   if (mesh_->triangle_count() == 0) return;
   root_ = root_cube(mesh_->bounds());
   build();
+}
+
+// A surface's triangles spread over about 4^d of the 8^d octants at depth d, so about
+// log4(triangles / leaf_size) levels bring the average leaf down to leaf_size; kAutoDepthMargin more
+// let the dense parts of a mesh split further. Nodes stop splitting at leaf_size anyway: the cap only
+// matters where triangles crowd a point (a fan around one vertex splits into the same triangles
+// level after level).
+int Octree::auto_max_depth(size_t triangle_count, int leaf_size) {
+  int depth = 0;
+  for (double held = double(std::max(leaf_size, 1)); held < double(triangle_count) && depth < kMaxDepth; held *= 4.0)
+    ++depth;
+  return std::min(depth + kAutoDepthMargin, kMaxDepth);
 }
 
 // Level by level: the nodes of a level are classified in parallel, placed by a running sum in level
@@ -156,7 +172,8 @@ Octree::Octree(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std:
 // next to each other. Before anything is allocated, the bytes the build would then hold (the
 // finished part, the working arrays of this level and the next, and the old copy of an array while
 // it grows) are checked against the budget; while a level is classified, the references it creates
-// are counted as they are found, so a tree far over the budget stops early.
+// are counted as they are found, so a tree far over the budget stops early. With max_depth auto,
+// the level that would pass the budget becomes the last one (its nodes leaves) instead.
 void Octree::build() {
   const TriangleMesh& mesh = *mesh_;
   const size_t budget = settings_.memory_budget;
@@ -191,7 +208,9 @@ void Octree::build() {
     // building them (dragon.obj at depth 16, leaf_size 1, was refused after 9.4 s and 2 GB; now in
     // about a second). Where the sample's finished tree alone is over the budget, counting stops
     // early: that decision does not depend on thread timing.
-    if (!estimated && level.size() >= kEstimateLevelNodes && depth + kEstimateDepthsLeft <= settings_.max_depth) {
+    // With max_depth auto the build never refuses: the checks below end it at the last level that fits.
+    if (!estimated && !automatic_depth_ && level.size() >= kEstimateLevelNodes &&
+        depth + kEstimateDepthsLeft <= max_depth_) {
       estimated = true;
       const double scale = double(level.size()) / double(kEstimateSamples);
       const size_t finished = level_base * sizeof(OctreeNode) + triangles_.size() * kRefBytes;
@@ -200,7 +219,7 @@ void Octree::build() {
       counts.cap = double(finished) < limit ? size_t((limit - double(finished)) / scale) : 0;
       tbb::parallel_for(size_t(0), kEstimateSamples, [&](size_t i) {
         const size_t j = (2 * i + 1) * level.size() / (2 * kEstimateSamples);
-        count_subtree(mesh, settings_, Bounds(level[j].lo, level[j].hi),
+        count_subtree(mesh, max_depth_, settings_.leaf_size, Bounds(level[j].lo, level[j].hi),
                       std::vector<uint32_t>(refs.begin() + level[j].first, refs.begin() + run_end(j)), depth,
                       counts);
       });
@@ -230,8 +249,16 @@ void Octree::build() {
                          std::to_string(kEstimateSamples) + " of the " + std::to_string(level.size()) +
                          " nodes at depth " + std::to_string(depth) + "; lower max_depth or raise leaf_size");
     }
+    // max_depth auto: set when splitting this level would pass the budget; its nodes become leaves.
+    bool last_level = false;
     auto splits = [&](size_t j) {
-      return depth < settings_.max_depth && run_end(j) - level[j].first > size_t(settings_.leaf_size);
+      return !last_level && depth < max_depth_ && run_end(j) - level[j].first > size_t(settings_.leaf_size);
+    };
+    // Whether `needed` bytes fit the budget; over it, a fixed depth refuses the build.
+    auto fits = [&](size_t needed) {
+      if (needed <= budget) return true;
+      if (!automatic_depth_) check_budget(needed, budget);
+      return false;
     };
     auto held = [&] {
       return bytes_of(nodes_) + bytes_of(triangles_) + level.bytes() + next_level.bytes() + refs.bytes() +
@@ -240,54 +267,76 @@ void Octree::build() {
 
     // 1. Classify: the octants every triangle of a splitting node overlaps, and what each node
     // will produce.
-    check_budget(held() + refs.size() + level.size() * sizeof(Placement), budget);
-    octants.resize(refs.size());
+    if (!fits(held() + refs.size() + level.size() * sizeof(Placement))) last_level = true;
+    if (!last_level) octants.resize(refs.size());
     placement.resize(level.size());
     // While they grow, the finished arrays need a second copy of what they already hold.
     const size_t held_while_classifying = held() + nodes_.size() * sizeof(OctreeNode) + triangles_.size() * kRefBytes;
     std::atomic<size_t> produced{0};
-    tbb::parallel_for(size_t(0), level.size(), [&](size_t j) {
-      const size_t first = level[j].first, end = run_end(j);
-      Placement& place = placement[j];
-      place = {0, 0, 0};
-      if (!splits(j)) {
-        place.leaf_refs = uint32_t(end - first);
-        return;
-      }
-      const Bounds box(level[j].lo, level[j].hi);
-      auto classify = [&](size_t k) { octants[k] = uint8_t(overlapped_octants(mesh, refs[k], box)); };
-      if (end - first > 4096) {
-        tbb::parallel_for(first, end, classify);
-      } else {
-        for (size_t k = first; k != end; ++k) classify(k);
-      }
-      uint32_t mask = 0;
-      for (size_t k = first; k != end; ++k) {
-        mask |= octants[k];
-        place.child_refs += uint32_t(std::popcount(octants[k]));
-      }
-      place.children = uint32_t(std::popcount(mask));
-      const size_t bytes = place.children * kNodeBytes + place.child_refs * kRefBytes;
-      check_budget(held_while_classifying + produced.fetch_add(bytes) + bytes, budget);
-    });
+    std::atomic<bool> over_budget{false};  // auto only: stop classifying, this level ends the tree
+    auto classify_level = [&] {
+      tbb::parallel_for(size_t(0), level.size(), [&](size_t j) {
+        const size_t first = level[j].first, end = run_end(j);
+        Placement& place = placement[j];
+        place = {0, 0, 0};
+        if (!splits(j) || over_budget.load(std::memory_order_relaxed)) {
+          place.leaf_refs = uint32_t(end - first);
+          return;
+        }
+        const Bounds box(level[j].lo, level[j].hi);
+        auto classify = [&](size_t k) { octants[k] = uint8_t(overlapped_octants(mesh, refs[k], box)); };
+        if (end - first > 4096) {
+          tbb::parallel_for(first, end, classify);
+        } else {
+          for (size_t k = first; k != end; ++k) classify(k);
+        }
+        uint32_t mask = 0;
+        for (size_t k = first; k != end; ++k) {
+          mask |= octants[k];
+          place.child_refs += uint32_t(std::popcount(octants[k]));
+        }
+        place.children = uint32_t(std::popcount(mask));
+        const size_t bytes = place.children * kNodeBytes + place.child_refs * kRefBytes;
+        if (!fits(held_while_classifying + produced.fetch_add(bytes) + bytes)) over_budget = true;
+      });
+    };
+    classify_level();
+    if (over_budget) {
+      last_level = true;
+      classify_level();  // now every node is a leaf
+    }
 
     // 2. Place, in level order: children get consecutive node indices, leaves consecutive runs.
-    size_t new_nodes = 0, next_refs = 0, leaf_refs = triangles_.size();
-    for (Placement& place : placement) {
-      const Placement counts = place;
-      place = {uint32_t(nodes_.size() + new_nodes), uint32_t(next_refs), uint32_t(leaf_refs)};
-      new_nodes += counts.children;
-      next_refs += counts.child_refs;
-      leaf_refs += counts.leaf_refs;
-      if (nodes_.size() + new_nodes > OctreeNode::kLeaf || next_refs > 0xffffffffu || leaf_refs > 0xffffffffu)
-        throw BuildError("octree build would need more than 2^31 nodes or 2^32 triangle references; "
-                         "lower max_depth or raise leaf_size");
+    // Returns the bytes the build then holds, or SIZE_MAX past the 32-bit indices.
+    size_t new_nodes = 0, next_refs = 0, leaf_refs = 0;
+    auto place_level = [&]() -> size_t {
+      new_nodes = 0, next_refs = 0, leaf_refs = triangles_.size();
+      bool overflow = false;
+      for (Placement& place : placement) {
+        const Placement counts = place;
+        place = {uint32_t(nodes_.size() + new_nodes), uint32_t(next_refs), uint32_t(leaf_refs)};
+        new_nodes += counts.children;
+        next_refs += counts.child_refs;
+        leaf_refs += counts.leaf_refs;
+        overflow |= nodes_.size() + new_nodes > OctreeNode::kLeaf || next_refs > 0xffffffffu || leaf_refs > 0xffffffffu;
+      }
+      if (overflow) return std::numeric_limits<size_t>::max();
+      // The growing arrays hold their old copy while they move.
+      return held() + (nodes_.size() + new_nodes) * sizeof(OctreeNode) + leaf_refs * kRefBytes +
+             (new_nodes * sizeof(PendingNode) > next_level.bytes() ? new_nodes * sizeof(PendingNode) : 0) +
+             (next_refs * kRefBytes > next.bytes() ? next_refs * kRefBytes : 0);
+    };
+    size_t needed = place_level();
+    if (needed > budget && automatic_depth_ && !last_level) {
+      last_level = true;
+      classify_level();
+      needed = place_level();
     }
-    // The growing arrays hold their old copy while they move.
-    check_budget(held() + (nodes_.size() + new_nodes) * sizeof(OctreeNode) + leaf_refs * kRefBytes +
-                     (new_nodes * sizeof(PendingNode) > next_level.bytes() ? new_nodes * sizeof(PendingNode) : 0) +
-                     (next_refs * kRefBytes > next.bytes() ? next_refs * kRefBytes : 0),
-                 budget);
+    if (needed == std::numeric_limits<size_t>::max())
+      throw BuildError("octree build would need more than 2^31 nodes or 2^32 triangle references; "
+                       "lower max_depth or raise leaf_size");
+    check_budget(needed, budget);
+    if (last_level) max_depth_ = depth;  // auto: the budget chose this depth
     // Exact reservations: growing by doubling would hold up to twice the finished tree.
     nodes_.reserve(nodes_.size() + new_nodes);
     nodes_.resize(nodes_.size() + new_nodes);

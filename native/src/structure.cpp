@@ -27,7 +27,8 @@ constexpr StructureInfo kStructures[] = {
      "One axis-aligned bounding box per object; rays that miss it are ignored", "the AABB", false, false, false,
      true, &make<AabbStructure>},
     {StructureKind::Octree, "octree", "Octree",
-     "A cube split into octants while a node holds more than leaf size triangles, down to the maximum depth",
+     "A cube split into octants while a node holds more than leaf size triangles, down to the maximum depth "
+     "(auto: derived from the triangle count and the memory budget)",
      "the octree root", true, true, true, true, &build_octree},
     {StructureKind::Bvh, "bvh", "BVH", "A bounding volume hierarchy built with the binned surface area heuristic",
      "the BVH root", false, true, true, true, &build_bvh},
@@ -57,7 +58,8 @@ const StructureInfo& structure_info(const std::string& name) {
 }
 
 void BuildSettings::validate() const {
-  if (max_depth < 0) throw std::invalid_argument("max_depth must be >= 0, got " + std::to_string(max_depth));
+  if (max_depth < 0 && max_depth != kAutoDepth)
+    throw std::invalid_argument("max_depth must be >= 0 or auto, got " + std::to_string(max_depth));
   if (max_depth > kMaxDepthLimit)
     throw std::invalid_argument("max_depth must be <= " + std::to_string(kMaxDepthLimit) + ", got " +
                                 std::to_string(max_depth));

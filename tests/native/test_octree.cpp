@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cstdio>
 #include <random>
 
@@ -411,4 +412,46 @@ TEST(OctreeExactness, TinyDirectionComponentsOnASplitPlaneBehaveLikeZero) {
       EXPECT_TRUE(s->any(tiny)) << structure_kind_name(kind) << " z = " << z;
     }
   }
+}
+
+// The parametric test of a node's eight octants is the box test of each octant's own box, bit for bit:
+// random boxes and rays, axis-parallel rays, origins exactly on the node's faces and mid-planes (the
+// NaN of 0 * inf), -0 and tiny direction components, and every far limit.
+TEST(OctreeExactness, OctantSlabsEqualTheBoxTestOfEachOctant) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  std::uniform_int_distribution<int> pick(0, 5);
+  int hits = 0, misses = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const glm::vec3 lo(unit(rng), unit(rng), unit(rng));
+    const Bounds box(lo, lo + glm::vec3(0.01f + std::abs(unit(rng))));
+    const glm::vec3 mid = box.center();
+    glm::vec3 origin(3 * unit(rng), 3 * unit(rng), 3 * unit(rng)), direction(unit(rng), unit(rng), unit(rng));
+    for (int axis = 0; axis < 3; ++axis) {
+      switch (pick(rng)) {
+        case 0: direction[axis] = 0.0f; break;
+        case 1: direction[axis] = -0.0f; break;
+        case 2: origin[axis] = mid[axis]; direction[axis] = 0.0f; break;
+        case 3: origin[axis] = box.lo[axis]; direction[axis] = i % 2 ? 0.0f : -1e-39f; break;
+        default: break;
+      }
+    }
+    Ray ray = ray_of(origin, direction, i % 3 ? 0.0f : 0.5f * std::abs(unit(rng)));
+    // The root the pad is measured from: a larger box around this one, or the box itself.
+    const Bounds root = i % 2 ? box : Bounds(box.lo - glm::vec3(2.0f), box.hi + glm::vec3(2.0f));
+    const BoxRay r(ray, root);
+    const OctantSlabs slabs(box, r);
+    for (float tmax : {kInfinity, 1.0f, 3.0f, ray.tmin}) {
+      for (int octant = 0; octant < 8; ++octant) {
+        float expected = -7.0f, got = -7.0f;
+        const bool a = intersect_box(octant_bounds(box, octant), r, tmax, expected);
+        const bool b = slabs.intersect(octant, r, tmax, got);
+        ASSERT_EQ(a, b) << "ray " << i << " octant " << octant;
+        ASSERT_EQ(std::bit_cast<uint32_t>(expected), std::bit_cast<uint32_t>(got)) << "ray " << i;
+        (a ? hits : misses)++;
+      }
+    }
+  }
+  EXPECT_GT(hits, 100000);
+  EXPECT_GT(misses, 100000);
 }

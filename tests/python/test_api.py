@@ -74,6 +74,21 @@ def test_structure_properties(sphere, structure):
     assert (s.max_depth, s.leaf_size, s.triangle_test) == (4, 3, "watertight")
 
 
+def test_octree_max_depth_is_auto_by_default_or_a_whole_number(sphere):
+    assert raylab.DEFAULTS["max_depth"] == "auto"
+    assert raylab.build(*sphere, structure="octree").max_depth == "auto"
+    assert raylab.build(*sphere, structure="octree", max_depth="auto").max_depth == "auto"
+    # auto caps the depth at log4(1280 triangles / 8 per leaf), rounded up, plus 2: 6.
+    auto = raylab.build(*sphere, structure="octree").boxes()
+    assert 3 <= auto["depth"].max() <= 6
+    fixed = raylab.build(*sphere, structure="octree", max_depth=2)
+    assert fixed.max_depth == 2 and fixed.boxes()["depth"].max() == 2
+    o, d = rays.camera_rays(sphere[0], 24)
+    expected = raylab.build(*sphere, structure="none").intersect(o, d)
+    got = raylab.build(*sphere, structure="octree").intersect(o, d)
+    assert np.array_equal(expected.triangle, got.triangle) and np.array_equal(expected.t, got.t)
+
+
 @pytest.mark.parametrize("structure", STRUCTURES)
 def test_intersect_results_have_the_agreed_shapes_and_dtypes(sphere, structure):
     s = raylab.build(*sphere, structure=structure)

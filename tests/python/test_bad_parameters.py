@@ -32,6 +32,8 @@ SETTINGS = {
     "max_depth beyond 32 bits": (dict(max_depth=2 ** 31), "max_depth must be an integer that fits in 32 bits, "
                                  "got 2147483648"),
     "max_depth float": (dict(max_depth=2.0), "max_depth must be an integer that fits in 32 bits, got 2.0"),
+    "max_depth unknown word": (dict(max_depth="deep"), "max_depth must be 'auto' or an integer, got 'deep'"),
+    "max_depth negative": (dict(max_depth=-1), "max_depth must be >= 0 or 'auto', got -1"),
     "leaf_size huge": (dict(leaf_size=10 ** 5000), "leaf_size must be an integer that fits in 32 bits, "
                        "got an integer of 16610 bits"),
     "leaf_size bool": (dict(leaf_size=True), "leaf_size must be an integer that fits in 32 bits, got True"),

@@ -19,9 +19,13 @@ enum class StructureKind { None, Aabb, Octree, Bvh, Grid };
 struct BuildSettings {
   // The deepest octree the traversal's stack is sized for.
   static constexpr int kMaxDepthLimit = 16;
+  // max_depth "auto" (Python's name for it): the octree picks its depth from the triangle count and
+  // the memory budget (Octree::auto_max_depth).
+  static constexpr int kAutoDepth = -1;
+  static constexpr const char* kAutoDepthName = "auto";
 
   StructureKind kind = StructureKind::Bvh;
-  int max_depth = 6;   // octree: depth 0 is the root alone
+  int max_depth = kAutoDepth;  // octree: depth 0 is the root alone, or kAutoDepth
   int leaf_size = 8;   // octree: split while a node holds more triangles than this; bvh: max per leaf
   TriangleTest triangle_test = TriangleTest::Watertight;
   size_t memory_budget = size_t(4) << 30;  // a build that would need more stops with BuildError

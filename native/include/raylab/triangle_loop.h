@@ -1,6 +1,7 @@
 // The inner loop every structure shares: test a run of triangles against one ray.
 #pragma once
 
+#include "raylab/mailbox.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
 
@@ -72,33 +73,36 @@ inline bool any_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& 
 // The two queries of a structure that walks its leaves front to back (octree nodes, grid cells).
 // `walk(limit, visit)` hands each leaf's triangle indices (a span) to `visit` in order; `visit`
 // returns true to stop; `limit()` is how far the walk must still look (the closest hit so far, or
-// ray.tmax for any hit).
-template <class Recorder, class Walk>
+// ray.tmax for any hit). `mailbox` (mailbox.h), one per query, skips the triangles this ray has
+// already tested in an earlier leaf; the search state is the whole ray's, which makes that exact.
+template <class Recorder, class Walk, class Mailbox = NoMailbox>
 inline bool closest_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Hit& hit,
-                                Recorder& record, Walk walk) {
+                                Recorder& record, Walk walk, Mailbox mailbox = {}) {
   record.ray();
   const TriangleTester tester(ray, kind);
   Hit best = initial_hit(ray);
   bool found = false;
   walk([&] { return best.t; }, [&](std::span<const uint32_t> leaf) {
-    found |= closest_in_triangles(mesh, tester, uint32_t(leaf.size()), [&](uint32_t i) { return leaf[i]; }, best,
-                                  record);
+    for (const uint32_t tri : leaf)
+      if (mailbox.first_test(tri))
+        found |= closest_in_triangles(mesh, tester, 1, [tri](uint32_t) { return tri; }, best, record);
     return false;
   });
   if (found) hit = best;
   return found;
 }
 
-template <class Recorder, class Walk>
+template <class Recorder, class Walk, class Mailbox = NoMailbox>
 inline bool any_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Recorder& record,
-                            Walk walk) {
+                            Walk walk, Mailbox mailbox = {}) {
   record.ray();
   const TriangleTester tester(ray, kind);
   bool occluded = false;
   walk([&] { return ray.tmax; }, [&](std::span<const uint32_t> leaf) {
-    occluded = any_in_triangles(mesh, tester, uint32_t(leaf.size()), [&](uint32_t i) { return leaf[i]; },
-                                ray.tmax, record);
-    return occluded;
+    for (const uint32_t tri : leaf)
+      if (mailbox.first_test(tri) && any_in_triangles(mesh, tester, 1, [tri](uint32_t) { return tri; }, ray.tmax, record))
+        return occluded = true;
+    return false;
   });
   return occluded;
 }
