@@ -16,7 +16,7 @@ import bpy
 
 from .. import api
 
-from . import preferences, render_stats
+from . import preferences, properties, render_stats
 from .level_panels import wrapped
 from .scene_export import build_scene, export_scene, render_settings
 
@@ -141,7 +141,7 @@ class CompareJob:
 def make_job(exported, props, super_sampling=None, structures=api.STRUCTURES, time_limit=0.0):
     """The job for an export with the settings of scene.raylab_render (read now, on the main thread)."""
     return CompareJob(exported, render_settings(exported, props, super_sampling),
-                      dict(max_depth=props.max_depth, leaf_size=props.leaf_size), tuple(structures), time_limit)
+                      dict(max_depth=properties.depth_setting(props), leaf_size=props.leaf_size), tuple(structures), time_limit)
 
 
 def compare_structures(exported, props, super_sampling=None, structures=api.STRUCTURES, time_limit=0.0):

@@ -24,6 +24,16 @@ def uses(structure, parameter):
     return api.STRUCTURE_INFO[structure][f"uses_{parameter}"]
 
 
+def depth_setting(props):
+    """The max_depth a build takes from scene.raylab or scene.raylab_render: "auto" (the core derives the
+    depth from the triangle count and the memory budget) or the slider's depth."""
+    return "auto" if props.max_depth_auto else props.max_depth
+
+
+AUTO_DEPTH_DESCRIPTION = ("Octree: choose the depth from the triangle count and the memory budget (a node "
+                          "still stops splitting at the leaf size); off: the depth below")
+
+
 VRT_GREEN = (0.2, 1.0, 0.2, 1.0)
 
 
@@ -89,6 +99,8 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     max_depth: IntProperty(name="Max depth", min=0, max=api.DEFAULTS["max_depth_limit"], soft_max=10, default=4,
                            update=_redraw,
                            description="Octree: the deepest level a node may split to (0 = the root alone)")
+    # Off in the viewport: the levels teach with the depth slider.
+    max_depth_auto: BoolProperty(name="Auto depth", default=False, update=_redraw, description=AUTO_DEPTH_DESCRIPTION)
     leaf_size: IntProperty(name="Leaf size", min=1, max=64, default=api.DEFAULTS["leaf_size"], update=_redraw,
                            description="Triangles a node may hold before it splits (octree) / per leaf (BVH)")
     # Off in a user's own files (the Preferences can turn it on there); every level turns it on itself.
@@ -158,9 +170,11 @@ class RAYLAB_PG_render(bpy.types.PropertyGroup):
 
     structure: EnumProperty(name="Structure", items=structure_items(), default=api.DEFAULTS["structure"],
                             description="Acceleration structure built for every mesh")
-    max_depth: IntProperty(name="Octree Depth", default=api.DEFAULTS["max_depth"], min=0,
+    max_depth_auto: BoolProperty(name="Auto Depth", default=api.DEFAULTS["max_depth"] == "auto",
+                                 description=AUTO_DEPTH_DESCRIPTION)
+    max_depth: IntProperty(name="Octree Depth", default=6, min=0,
                            max=api.DEFAULTS["max_depth_limit"], soft_max=12,
-                           description="Maximum octree depth (0 = the root box only)")
+                           description="Maximum octree depth when Auto Depth is off (0 = the root box only)")
     leaf_size: IntProperty(name="Leaf Size", default=api.DEFAULTS["leaf_size"], min=1, max=256,
                            description="Triangles a node may hold before it is split (octree and BVH)")
     super_sampling: IntProperty(name="Super Sampling", default=1, min=1, max=4,

@@ -2,7 +2,7 @@
 import bpy
 
 from .. import api
-from . import compat, render_stats, viewport_panels
+from . import compat, properties, render_stats, viewport_panels
 from .scene_export import build_scene, export_scene, render_settings
 
 def render_exported(exported, props, structure=None, super_sampling=None, progress=None):
@@ -10,7 +10,7 @@ def render_exported(exported, props, structure=None, super_sampling=None, progre
 
     Raises ExportError, ValueError (bad geometry or settings) or raylab.BuildError (memory budget)."""
     scene, _ = build_scene(exported, structure=structure or props.structure,
-                           max_depth=props.max_depth, leaf_size=props.leaf_size)
+                           max_depth=properties.depth_setting(props), leaf_size=props.leaf_size)
     return api.render(scene, exported.camera, exported.lights, exported.materials,
                          render_settings(exported, props, super_sampling), progress=progress)
 

@@ -78,7 +78,8 @@ class SceneModel:
     def __init__(self, settings_key, settings):
         structure = settings_key[0]
         self.settings_key = settings_key
-        self.scene = api.Scene(structure=structure, max_depth=settings.max_depth, leaf_size=settings.leaf_size)
+        self.scene = api.Scene(structure=structure, max_depth=properties.depth_setting(settings),
+                               leaf_size=settings.leaf_size)
         self.world = structure == WORLD_ALIGNED
         self.parts = {}       # object name -> _Part
         self.instances = []   # instance id -> object name
@@ -233,7 +234,7 @@ def settings_key(settings):
     """The build settings that matter for the chosen structure (a change to another one costs no rebuild)."""
     structure = settings.structure
     return (structure,
-            settings.max_depth if properties.uses(structure, "max_depth") else None,
+            properties.depth_setting(settings) if properties.uses(structure, "max_depth") else None,
             settings.leaf_size if properties.uses(structure, "leaf_size") else None)
 
 

@@ -7,9 +7,12 @@ from . import probe, properties, render_stats, structure_cache
 def draw_structure_settings(layout, props):
     """The structure and its build settings, each active only where it applies (viewport and render)."""
     layout.prop(props, "structure")
-    depth = layout.row()
+    depth = layout.column()
     depth.active = properties.uses(props.structure, "max_depth")
-    depth.prop(props, "max_depth")
+    depth.prop(props, "max_depth_auto")
+    slider = depth.row()
+    slider.active = not props.max_depth_auto
+    slider.prop(props, "max_depth")
     leaf = layout.row()
     leaf.active = properties.uses(props.structure, "leaf_size")
     leaf.prop(props, "leaf_size")
