@@ -14,16 +14,6 @@ THIN = 'SMOOTH_COLOR'            # 1-pixel lines and points: cheap even for 100k
 THICK = 'POLYLINE_SMOOTH_COLOR'  # wide lines (a geometry shader): for the few lines that stand out
 
 
-def render_running():
-    """Whether a render job (F12) is running. Meanwhile the viewport's callbacks show what they last
-    computed and call nothing that releases the GIL: Blender keeps its "may Python write blend data"
-    flag in one global that its callbacks set and restore around Python code, the render thread's
-    RenderEngine.render() included; a main-thread draw that let the render thread run Python in the
-    middle of it could restore a stale value, and every later bpy.ops call then failed with "can't
-    modify blend data in this state (drawing/rendering)" (tests/gui/render_repeat.py)."""
-    return bpy.app.is_job_running('RENDER')
-
-
 def tag_redraw(context=None):
     """Asks every 3D viewport of every window to redraw."""
     wm = (context or bpy.context).window_manager

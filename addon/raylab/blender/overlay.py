@@ -83,8 +83,6 @@ def line_geometry(obj, scene, depsgraph=None):
     """The cached wireframe of `obj`'s structure for the scene's settings, rebuilt only when the
     structure or the filters changed; None when the structure is unavailable."""
     settings = scene.raylab
-    if draw.render_running():  # the batch as it was: see draw.render_running
-        return _geometry.get(obj.name_full)
     entry = structure_cache.structure_for(obj, settings, depsgraph)
     if entry.structure is None:
         _geometry.pop(obj.name_full, None)

@@ -148,11 +148,9 @@ def probe_result(scene, depsgraph=None):
     """The ProbeResult of the scene's probe (and fan) on the scene model's raylab.Scene, traced again
     only if anything it depends on changed: the rays, the objects' meshes, transforms or settings."""
     settings = scene.raylab
-    cached = _results.get(scene.name_full)
-    if draw.render_running():  # the last result, traced again once the render ended
-        return cached or ProbeResult(None, _empty_public(), ["The probe waits for the render to end"])
     model = structure_cache.scene_model(scene, depsgraph)
     key, (origins, directions, why_not), fan = _probe_key(scene, model)
+    cached = _results.get(scene.name_full)
     if cached is not None and cached.key == key:
         return cached
     public = _empty_public()

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import api
 
-from . import draw, properties
+from . import properties
 from .mesh_data import mesh_triangles, mesh_vertices
 
 WORLD_ALIGNED = "aabb"  # the one structure kept in world space (see above)
@@ -239,10 +239,7 @@ def settings_key(settings):
 
 
 def scene_model(scene, depsgraph=None):
-    """The SceneModel of a Blender scene, brought up to date with its shown objects and settings; while
-    a render job runs, the model as it was (None if there is none yet): see draw.render_running."""
-    if draw.render_running():
-        return _models.get(scene.name_full)
+    """The SceneModel of a Blender scene, brought up to date with its shown objects and settings."""
     settings = scene.raylab
     key = settings_key(settings)
     targets = target_objects(scene)
@@ -257,10 +254,9 @@ def scene_model(scene, depsgraph=None):
 def structure_for(obj, settings, depsgraph=None):
     """The Entry of `obj` in its scene's model for the scene's raylab settings, built if anything changed."""
     model = scene_model(settings.id_data, depsgraph)
-    entry = None if model is None else model.entry(obj.name_full)
+    entry = model.entry(obj.name_full)
     if entry is None:
-        why = "waits for the render to end" if model is None else "is not shown (hidden, not a mesh, or not selected)"
-        return Entry(None, None, 'OBJECT', f"'{obj.name}' {why}")
+        return Entry(None, None, 'OBJECT', f"'{obj.name}' is not shown (hidden, not a mesh, or not selected)")
     return entry
 
 
