@@ -44,6 +44,14 @@ def click_raylab_tab():
     area.tag_redraw()
 
 
+def main_window_override():
+    """temp_override arguments for the first window's largest area and its main region."""
+    window = bpy.context.window_manager.windows[0]
+    area = max(window.screen.areas, key=lambda a: a.width * a.height)
+    region = next(r for r in area.regions if r.type == 'WINDOW')
+    return dict(window=window, area=area, region=region)
+
+
 def screenshot(path, window=None):
     """The whole window (the first one unless given), as a PNG at `path`.
 

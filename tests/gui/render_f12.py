@@ -41,19 +41,12 @@ def finish():
     bpy.ops.wm.quit_blender()
 
 
-def main_window_override():
-    window = bpy.context.window_manager.windows[0]
-    area = max(window.screen.areas, key=lambda a: a.width * a.height)
-    region = next(r for r in area.regions if r.type == 'WINDOW')
-    return dict(window=window, area=area, region=region)
-
-
 def start_render():
     try:
         bpy.context.preferences.view.render_display_type = 'WINDOW'
         scene = bpy.context.scene
         scene.render.engine = 'RAYLAB'
-        with bpy.context.temp_override(**main_window_override()):
+        with bpy.context.temp_override(**blender_window.main_window_override()):
             bpy.ops.render.render('INVOKE_DEFAULT')
         bpy.app.timers.register(wait_for_render, first_interval=0.5)
     except Exception:

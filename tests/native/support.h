@@ -3,6 +3,9 @@
 
 #include "raylab/geometry.h"
 #include "raylab/mesh_io.h"
+#include "raylab/structure.h"
+
+#include <gtest/gtest.h>
 
 #include <memory>
 #include <random>
@@ -68,6 +71,19 @@ inline std::vector<glm::dvec3> clip_to_box(const TriangleMesh& mesh, uint32_t tr
       if (poly.empty()) return poly;
     }
   return poly;
+}
+
+// The same closest hit, bit for bit (triangle, t, u, v), or the same miss.
+inline void expect_same_closest(const Structure& reference, const Structure& s, const Ray& ray) {
+  Hit expected, got;
+  const bool a = reference.closest(ray, expected);
+  const bool b = s.closest(ray, got);
+  ASSERT_EQ(a, b) << "origin " << ray.origin.x << " " << ray.origin.y << " " << ray.origin.z;
+  if (!a) return;
+  EXPECT_EQ(expected.triangle, got.triangle);
+  EXPECT_EQ(expected.t, got.t);
+  EXPECT_EQ(expected.u, got.u);
+  EXPECT_EQ(expected.v, got.v);
 }
 
 }  // namespace raylab::test

@@ -48,18 +48,6 @@ MeshPtr large_triangle_mesh() {
   return mesh_of(std::move(v), std::move(t));
 }
 
-void expect_same_closest(const Structure& reference, const Structure& s, const Ray& ray) {
-  Hit expected, got;
-  const bool a = reference.closest(ray, expected);
-  const bool b = s.closest(ray, got);
-  ASSERT_EQ(a, b) << "origin " << ray.origin.x << " " << ray.origin.y << " " << ray.origin.z;
-  if (!a) return;
-  EXPECT_EQ(expected.triangle, got.triangle);
-  EXPECT_EQ(expected.t, got.t);
-  EXPECT_EQ(expected.u, got.u);
-  EXPECT_EQ(expected.v, got.v);
-}
-
 // Pinhole-camera rays from 2.5 mesh sizes away through a grid covering the mesh.
 std::vector<Ray> camera_rays(const TriangleMesh& mesh, int side) {
   const Bounds b = mesh.bounds();

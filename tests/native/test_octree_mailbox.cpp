@@ -25,18 +25,6 @@ std::unique_ptr<Structure> build(const MeshPtr& mesh, StructureKind kind, int ma
 
 const Octree& octree_of(const Structure& s) { return dynamic_cast<const Octree&>(s); }
 
-void expect_same_closest(const Structure& reference, const Structure& s, const Ray& ray) {
-  Hit expected, got;
-  const bool a = reference.closest(ray, expected);
-  const bool b = s.closest(ray, got);
-  ASSERT_EQ(a, b) << "origin " << ray.origin.x << " " << ray.origin.y << " " << ray.origin.z;
-  if (!a) return;
-  EXPECT_EQ(expected.triangle, got.triangle);
-  EXPECT_EQ(expected.t, got.t);
-  EXPECT_EQ(expected.u, got.u);
-  EXPECT_EQ(expected.v, got.v);
-}
-
 // One large triangle across the unit cube, and a small one in every corner so that the octree
 // splits all around the large one.
 MeshPtr large_triangle_mesh() {

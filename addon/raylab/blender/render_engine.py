@@ -1,4 +1,6 @@
 """The raylab render engine (F12 with Render Engine: raylab) and its Render Properties panels."""
+import threading
+
 import bpy
 
 from .. import api
@@ -13,6 +15,28 @@ def render_exported(exported, props, structure=None, super_sampling=None, progre
                            max_depth=properties.depth_setting(props), leaf_size=props.leaf_size)
     return api.render(scene, exported.camera, exported.lights, exported.materials,
                          render_settings(exported, props, super_sampling), progress=progress)
+
+
+# F12 renders in a job thread, while the main thread draws panels that read the scene's ID properties:
+# the render's record waits here and a main-thread timer stores it (a render run on the main thread, as
+# bpy.ops.render.render() from a script does, stores it at once).
+_pending_records = {}  # scene name -> record
+
+
+def _store_last_render(scene_name, record):
+    if threading.current_thread() is threading.main_thread():
+        bpy.data.scenes[scene_name][render_stats.LAST_RENDER] = record
+    else:
+        _pending_records[scene_name] = record
+
+
+def _flush_last_renders():
+    while _pending_records:
+        name, record = _pending_records.popitem()
+        scene = bpy.data.scenes.get(name)
+        if scene is not None:
+            scene[render_stats.LAST_RENDER] = record
+    return 0.25
 
 
 class RaylabRenderEngine(bpy.types.RenderEngine):
@@ -36,7 +60,7 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         if result.cancelled:
             self.update_stats("", f"raylab {props.structure}: cancelled")
             return
-        scene.original[render_stats.LAST_RENDER] = render_stats.record(result.stats, props.super_sampling)
+        _store_last_render(scene.original.name_full, render_stats.record(result.stats, props.super_sampling))
         line = render_stats.line(result.stats)
         # The info text is printed by background renders but cleared from the render window when the
         # render ends; the result's message (error_set) is what the window keeps showing after it.
@@ -114,9 +138,13 @@ def register():
         bpy.utils.register_class(cls)
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.add('RAYLAB')
+    bpy.app.timers.register(_flush_last_renders, persistent=True)
 
 
 def unregister():
+    if bpy.app.timers.is_registered(_flush_last_renders):
+        bpy.app.timers.unregister(_flush_last_renders)
+    _pending_records.clear()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.discard('RAYLAB')
     for cls in reversed(CLASSES):

@@ -1,0 +1,112 @@
+"""In a real Blender window: F12 (render.render INVOKE_DEFAULT) with raylab many times in a row, started
+from timers as a script or a user would, with operators and property edits while each render runs and
+after it ends. Any operator error, a render that never ends, or Blender failing to quit is reported.
+
+blender SCENE.blend --python render_repeat.py -- REPORT.json RENDERS
+"""
+import json
+import os
+import sys
+import time
+import traceback
+
+import bpy
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import blender_window  # noqa: E402
+import raylab  # noqa: E402
+
+REPORT, RENDERS = os.path.abspath(sys.argv[sys.argv.index("--") + 1]), int(sys.argv[sys.argv.index("--") + 2])
+RENDER_SECONDS_MAX = 120.0  # one small render takes well under a second; a stuck one never ends
+report = {"renders_started": 0, "renders_finished": 0, "operator_calls": 0, "errors": []}
+state = {"started_at": 0.0}
+
+
+def finish():
+    report["finished"] = True
+    with open(REPORT, "w") as file:
+        json.dump(report, file, indent=2)
+    try:
+        bpy.ops.wm.quit_blender()
+    except RuntimeError as error:  # the lock-up again: a Blender that cannot quit would hang the test
+        report["errors"].append(f"quit: {error}")
+        with open(REPORT, "w") as file:
+            json.dump(report, file, indent=2)
+        os._exit(2)
+
+
+POKE = os.environ.get("RAYLAB_POKE", "ops,prop")  # what poke() does: operators, a property edit
+
+
+def poke(when):
+    """What a user or a script does meanwhile: operators and a property edit that undo can see."""
+    if not POKE:
+        return
+    try:
+        if "ops" in POKE:
+            with bpy.context.temp_override(**blender_window.main_window_override()):
+                bpy.ops.object.select_all(action='TOGGLE')
+                bpy.ops.object.select_all(action='TOGGLE')
+        if "prop" in POKE:
+            bpy.context.scene.raylab.fade = not bpy.context.scene.raylab.fade
+        report["operator_calls"] += 1
+    except Exception as error:  # the lock-up this test guards against: every bpy.ops call refused
+        report["errors"].append(f"{when}, render {report['renders_started']}: {error}")
+
+
+def start_render():
+    try:
+        with bpy.context.temp_override(**blender_window.main_window_override()):
+            bpy.ops.render.render('INVOKE_DEFAULT')
+        report["renders_started"] += 1
+        state["started_at"] = time.monotonic()
+        return wait_for_render()
+    except Exception:
+        report["errors"].append(traceback.format_exc())
+        finish()
+        return None
+
+
+def wait_for_render():
+    """Timer: pokes while the render runs, then starts the next one (or finishes)."""
+    try:
+        if bpy.app.is_job_running('RENDER'):
+            if time.monotonic() - state["started_at"] > RENDER_SECONDS_MAX:
+                report["errors"].append(f"render {report['renders_started']} never ended")
+                finish()
+                return None
+            poke("while rendering")
+            bpy.app.timers.register(wait_for_render, first_interval=0.05)
+            return None
+        report["renders_finished"] += 1
+        poke("after the render")
+        if report["errors"] and state.setdefault("retries", 0) < 20:
+            state["retries"] += 1
+            bpy.app.timers.register(retry, first_interval=0.5)
+            return None
+        if report["errors"] or report["renders_finished"] >= RENDERS:
+            finish()
+            return None
+        bpy.app.timers.register(start_render, first_interval=0.05)
+    except Exception:
+        report["errors"].append(traceback.format_exc())
+        finish()
+    return None
+
+
+def retry():
+    errors = len(report["errors"])
+    poke(f"retry {state['retries']}")
+    report.setdefault("retries", []).append(len(report["errors"]) > errors)
+    if len(report["errors"]) > errors and state["retries"] < 20:
+        state["retries"] += 1
+        return 0.5
+    finish()
+    return None
+
+
+raylab.register()
+bpy.context.preferences.view.render_display_type = 'WINDOW'
+bpy.context.scene.render.resolution_percentage = 25
+bpy.app.timers.register(start_render, first_interval=1.0)
