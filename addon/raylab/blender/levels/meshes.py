@@ -50,35 +50,32 @@ def shipped_mesh_arrays(filename):
 
 
 def object_mesh_arrays(obj):
-    """The triangles of a user's mesh object in its own space, as it renders: modifiers applied
-    (evaluated in a scene that holds it, which need not be the level's), transform left out. An
-    object in no scene has nothing to evaluate it: its mesh is taken as it is."""
-    depsgraph = _depsgraph_of(obj)
-    evaluated = obj if depsgraph is None else obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
-        triangles = mesh_triangles(mesh)
-        if len(triangles) == 0:
-            raise LevelError(f"{obj.name} has no faces")
-        return mesh_vertices(mesh), triangles
-    finally:
-        evaluated.to_mesh_clear()
-
-
-def _depsgraph_of(obj):
-    """An evaluated depsgraph holding `obj`: the window's when it shows the object, else that of a view
-    layer of the object's own scene (the student's scene, while the level's is shown); None when it is in
-    no scene."""
+    """The triangles of a user's mesh object in its own space, as it renders: modifiers applied, transform
+    left out. An object of another scene (the student's, while the level's is shown) is linked into the
+    shown scene for the moment it is evaluated: Blender 4.x does not evaluate the depsgraph of a scene no
+    window shows. An object in no scene has nothing to evaluate it: its mesh is taken as it is."""
     context = bpy.context
-    if context.view_layer.objects.get(obj.name) == obj:
-        return context.evaluated_depsgraph_get()
-    for scene in obj.users_scene:
-        for view_layer in scene.view_layers:
-            if view_layer.objects.get(obj.name) == obj:
-                depsgraph = view_layer.depsgraph
-                depsgraph.update()
-                return depsgraph
-    return None
+    shown = context.view_layer.objects.get(obj.name) == obj
+    borrowed = not shown and bool(obj.users_scene)
+    if borrowed:
+        context.scene.collection.objects.link(obj)
+    try:
+        evaluated = obj
+        if shown or borrowed:
+            depsgraph = context.evaluated_depsgraph_get()
+            depsgraph.update()
+            evaluated = obj.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            triangles = mesh_triangles(mesh)
+            if len(triangles) == 0:
+                raise LevelError(f"{obj.name} has no faces")
+            return mesh_vertices(mesh), triangles
+        finally:
+            evaluated.to_mesh_clear()
+    finally:
+        if borrowed:
+            context.scene.collection.objects.unlink(obj)
 
 
 def mesh_sources(scene):
