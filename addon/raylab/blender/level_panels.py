@@ -82,7 +82,7 @@ class RAYLAB_PT_levels(_LevelPanel, bpy.types.Panel):
         row.operator(levels.RAYLAB_OT_level_next.bl_idname, text="Next", icon='TRIA_RIGHT')
         if level is not None:
             box = layout.box()
-            _label_lines(box, wrapped(context, level.title, 4), 'INFO')
+            _label_lines(box, wrapped(context, level.title, 8), 'INFO')  # the box and the icon take room
             _label_lines(box, wrapped(context, "Goal: " + level.goal, 2))
 
 
@@ -104,7 +104,7 @@ class RAYLAB_PT_level_text(_OpenLevelPanel, bpy.types.Panel):
             kind = block[0]
             if kind == "heading":
                 layout.separator()
-                layout.label(text=block[1], icon='BOOKMARKS')
+                _label_lines(layout, wrapped(context, block[1], 6), 'BOOKMARKS')
             elif kind == "paragraph":
                 _label_lines(layout, wrapped(context, block[1]))
             elif kind == "bullet":
@@ -193,7 +193,9 @@ class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
         return {'FINISHED'}
 
 
-CLASSES = (RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_level_text, RAYLAB_PT_level_tasks,
+# Sub-panels draw in the order they are registered: the tasks right under the goal, where a student sees
+# them tick while working, and the tutorial's text below them.
+CLASSES = (RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_level_tasks, RAYLAB_PT_level_text,
            RAYLAB_PT_level_mesh, RAYLAB_PT_level_list)
 
 

@@ -36,17 +36,18 @@ class RAYLAB_PT_structure(_RaylabPanel, bpy.types.Panel):
         layout.use_property_split = True
         draw_structure_settings(layout, settings)
         layout.prop(settings, "objects")
-        layout.prop(settings, "color_by_depth")
         row = layout.row()
         row.active = not settings.color_by_depth
         row.prop(settings, "line_color")
         column = layout.column(align=True)
         column.prop(settings, "depth_min")
         column.prop(settings, "depth_max")
-        layout.prop(settings, "leaves_only")
-        layout.prop(settings, "xray")
-        layout.prop(settings, "fade")
-        layout.prop(settings, "spin")
+        # Checkboxes carry their label on the right, at full width: split, the sidebar's default width
+        # cut "Colour by depth" to "Colour by…".
+        toggles = layout.column(align=True)
+        toggles.use_property_split = False
+        for name in ("color_by_depth", "leaves_only", "xray", "fade", "spin"):
+            toggles.prop(settings, name)
         for obj in structure_cache.target_objects(context.scene, context.view_layer):
             entry = structure_cache.cached(obj, context.scene)
             if entry is not None and entry.error:
