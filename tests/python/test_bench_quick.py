@@ -86,8 +86,10 @@ def test_thesis_experiment_covers_every_structure(bench):
     levels = sorted({ss for _, ss in rows})
     assert {s for s, _ in rows} == set(raylab.STRUCTURES)
     for ss in levels:
-        tests = [rows[(s, ss)]["triangle_tests"] for s in ("none", "aabb", "octree", "bvh")]
-        assert tests == sorted(tests, reverse=True) and tests[-1] < tests[0]
+        none, aabb, octree, bvh = (rows[(s, ss)]["triangle_tests"] for s in ("none", "aabb", "octree", "bvh"))
+        # Brute force tests the most, one box per object fewer, a hierarchy far fewer; which of the
+        # octree and the BVH tests fewer depends on the scene (auto depth with mailboxing can win).
+        assert none > aabb > max(octree, bvh) and 10 * max(octree, bvh) < aabb
     # The point of the speed-against-accuracy chart: every structure renders the same image.
     assert all(e["max_difference_to_other_structures"] < 1e-5 for e in thesis["image_error"])
 
