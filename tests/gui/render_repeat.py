@@ -7,7 +7,7 @@ blender SCENE.blend --python render_repeat.py -- REPORT.json RENDERS
 A diagnostic for the F12 lock-up (issue 12), not yet a test: Blender's "may Python write blend data" flag
 can stay off after a render, and then every bpy.ops call fails with "can't modify blend data in this
 state (drawing/rendering)". It did within 4 to 25 renders when the render thread wrote the scene's ID
-property; since it hands its record to a main-thread timer, 2 runs of 50 were clean and one locked at 36.
+property; since it hands its record to a main-thread timer, 3 runs of 50 were clean and one locked at 36.
 """
 import json
 import os
