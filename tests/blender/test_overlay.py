@@ -184,4 +184,7 @@ def test_one_raylab_scene_per_blender_scene(monkey_scene):
     bpy.context.view_layer.update()
     assert "singular" in structure_cache.structure_for(cube, scene.raylab).error
     assert structure_cache.structure_for(monkey, scene.raylab).structure is not None
-    assert structure_cache.scene_model(scene).instances == [monkey.name_full]
+    model = structure_cache.scene_model(scene)
+    assert model.instances == [monkey.name_full]
+    generation = model.generation  # a refused instance is not tried again on every redraw
+    assert structure_cache.scene_model(scene).generation == generation

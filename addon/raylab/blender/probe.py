@@ -139,8 +139,7 @@ def _probe_key(scene, model):
     fan = probe_rays(scene, fan=True) if settings.fan_enabled else (None, None, None)
     key = (why_not, None if origins is None else (origins.tobytes(), directions.tobytes()),
            settings.probe_length, None if fan[0] is None else (fan[0].tobytes(), fan[1].tobytes()),
-           id(model.scene), model.settings_key, tuple(model.instances), tuple(model.matrices),
-           tuple((name, part.key) for name, part in model.parts.items()), model.error)
+           id(model), model.generation)
     return key, (origins, directions, why_not), fan
 
 
@@ -154,12 +153,9 @@ def probe_result(scene, depsgraph=None):
     if cached is not None and cached.key == key:
         return cached
     public = _empty_public()
-    errors = [f"{name}: {part.error}" for name, part in model.parts.items() if part.error] + \
-        ([model.error] if model.error else [])
+    errors = model.errors()
     if why_not is not None:
         result = ProbeResult(key, public, [why_not])
-    elif not model.parts:
-        result = ProbeResult(key, public, ["No mesh to probe"])
     elif not model.committed or not model.instances:
         result = ProbeResult(key, public, errors[:1] or ["No mesh to probe"])
     else:

@@ -60,15 +60,17 @@ class Entry:
 
 
 class _Part:
-    """An object's mesh in the raylab.Scene: its mesh id, the key it was added with, its entry."""
+    """An object's mesh in the raylab.Scene: its mesh id, the key it was added with, why it is not
+    traced (its mesh, or its instance's matrix), its entry."""
 
-    __slots__ = ("mesh", "key", "triangle_count", "error", "entry")
+    __slots__ = ("mesh", "key", "triangle_count", "error", "instance_error", "entry")
 
     def __init__(self, mesh, key, triangle_count, error=None):
         self.mesh = mesh
         self.key = key
         self.triangle_count = triangle_count
-        self.error = error
+        self.error = error          # the mesh cannot be added (no faces, a NaN vertex)
+        self.instance_error = None  # the scene refused its matrix (e.g. scaled to zero)
         self.entry = None
 
 
@@ -82,93 +84,104 @@ class SceneModel:
                                leaf_size=settings.leaf_size)
         self.world = structure == WORLD_ALIGNED
         self.parts = {}       # object name -> _Part
+        self.shown = ([], [])  # the object names and matrix bytes last asked for
         self.instances = []   # instance id -> object name
-        self.matrices = []    # instance id -> the matrix bytes it was added or moved with
         self.stale = 0        # meshes added or replaced since the last commit
         self.error = None     # why the last commit failed
         self.committed = False
-
-    def objects(self):
-        """The object names of the instances, in instance order."""
-        return self.instances
+        self.generation = 0   # commits so far: what the probe's cache key reads
 
     def triangle_count(self):
         return sum(self.parts[name].triangle_count for name in self.instances)
+
+    def errors(self):
+        """Why shown objects are not traced, and why the last commit failed."""
+        shown = (self.parts[name] for name in self.shown[0])
+        return [f"{name}: {part.error or part.instance_error}" for name, part in zip(self.shown[0], shown)
+                if part.error or part.instance_error] + ([self.error] if self.error else [])
 
     def entry(self, name):
         part = self.parts.get(name)
         if part is None:
             return None
         if part.entry is None:
-            error = part.error or self.error or (None if self.committed else "not built yet")
+            error = part.error or part.instance_error or self.error or (None if self.committed else "not built yet")
             structure = None if error else self.scene.structure(part.mesh)
             part.entry = Entry(part.key, structure, 'WORLD' if self.world else 'OBJECT', error)
         return part.entry
 
     def _update_part(self, obj, mesh, matrix):
+        """Adds or replaces the object's mesh if it changed; True if it did."""
         name = obj.name_full
         key = (mesh.digest, self.settings_key, matrix.tobytes() if self.world else None)
         part = self.parts.get(name)
         if part is not None and part.key == key:
             return False
-        if len(mesh.triangles) == 0:
-            self.parts[name] = _Part(part.mesh if part else None, key, 0, "the mesh has no faces")
-            return True
-        vertices = transform_points(matrix, mesh.vertices).astype(np.float32) if self.world else mesh.vertices
-        try:
-            if part is None or part.mesh is None:
-                mesh_id = self.scene.add_mesh(vertices, mesh.triangles)
-            else:
-                mesh_id = part.mesh
-                self.scene.replace_mesh(mesh_id, vertices, mesh.triangles)
-            self.parts[name] = _Part(mesh_id, key, len(mesh.triangles))
-            self.stale += 1
-        except ValueError as error:  # e.g. a NaN vertex
-            self.parts[name] = _Part(part.mesh if part else None, key, 0, str(error))
+        new = self._new_part(part.mesh if part else None, mesh, matrix, key)
+        if part is not None:  # a refused instance stays refused until its matrix changes
+            new.instance_error = part.instance_error
+        self.parts[name] = new
         return True
 
-    def _set_instances(self, shown):
-        """Instances for `shown` [(name, matrix)], moved where only matrices changed; True if any changed."""
-        names = [name for name, _ in shown]
-        matrices = [m.tobytes() for _, m in shown]
+    def _new_part(self, mesh_id, mesh, matrix, key):
+        """The object's mesh added to the scene (or replacing mesh `mesh_id`), or why it cannot be."""
+        if len(mesh.triangles) == 0:
+            return _Part(mesh_id, key, 0, "the mesh has no faces")
+        vertices = transform_points(matrix, mesh.vertices).astype(np.float32) if self.world else mesh.vertices
+        try:
+            if mesh_id is None:
+                mesh_id = self.scene.add_mesh(vertices, mesh.triangles)
+            else:
+                self.scene.replace_mesh(mesh_id, vertices, mesh.triangles)
+        except ValueError as error:  # e.g. a NaN vertex
+            return _Part(mesh_id, key, 0, str(error))
+        self.stale += 1
+        return _Part(mesh_id, key, len(mesh.triangles))
+
+    def _set_instances(self, names, matrices):
+        """Instances for the objects `names` with (4,4) `matrices`: moved where only matrices changed,
+        else set again; nothing when they are what was asked for last. True if anything changed."""
+        request = (names, [m.tobytes() for m in matrices])
+        if request == self.shown:
+            return False
         if names == self.instances:
-            moved = [i for i, m in enumerate(matrices) if m != self.matrices[i]]
+            moved = [i for i, m in enumerate(request[1]) if m != self.shown[1][i]]
             try:
                 for i in moved:
-                    self.scene.set_transform(i, shown[i][1])
-                self.matrices = matrices
-                return bool(moved)
+                    self.scene.set_transform(i, matrices[i])
+                self.shown = request
+                return True
             except ValueError:
                 pass  # a matrix the scene refuses: set the instances again below, without it
+        self.shown = request
         self.scene.clear_instances()
-        self.instances, self.matrices = [], []
-        for name, matrix in shown:
+        self.instances = []
+        for name, matrix in zip(names, matrices):
+            part = self.parts[name]
+            part.instance_error = None
             try:
-                self.scene.add_instance(self.parts[name].mesh, matrix)
+                self.scene.add_instance(part.mesh, matrix)
             except ValueError as error:  # singular: e.g. scaled to zero
-                self.parts[name].error = f"not traced: {error}"
-                self.parts[name].entry = None
+                part.instance_error = f"not traced: {error}"
                 continue
             self.instances.append(name)
-            self.matrices.append(matrix.tobytes())
         return True
 
     def update(self, targets, depsgraph):
         changed = False
-        shown = []
+        names, matrices = [], []
         for obj in targets:
-            mesh = _mesh_of(obj, depsgraph)
             matrix = matrix_of(obj)
-            changed |= self._update_part(obj, mesh, matrix)
-            part = self.parts[obj.name_full]
-            if part.error is None or part.error.startswith("not traced"):
-                part.error = None
-                shown.append((obj.name_full, np.identity(4) if self.world else matrix))
-        changed |= self._set_instances(shown)
+            changed |= self._update_part(obj, _mesh_of(obj, depsgraph), matrix)
+            if self.parts[obj.name_full].error is None:
+                names.append(obj.name_full)
+                matrices.append(np.identity(4) if self.world else matrix)
+        changed |= self._set_instances(names, matrices)
         if changed:
             self._commit()
 
     def _commit(self):
+        self.generation += 1
         for part in self.parts.values():
             part.entry = None
         try:
