@@ -1,5 +1,6 @@
 // The benchmark's explanation of a disagreement with Embree: each kind on a ray built to show it.
 #include "hit_comparison.h"
+#include "support.h"
 
 #include <gtest/gtest.h>
 
@@ -16,12 +17,7 @@ TriangleMesh two_triangles() {
   return mesh;
 }
 
-Ray down_from(float x, float y, float z) {
-  Ray r;
-  r.origin = {x, y, z};
-  r.direction = {0, 0, -1};
-  return r;
-}
+Ray down_from(float x, float y, float z) { return test::ray_of({x, y, z}, {0, 0, -1}); }
 
 Hit hit(uint32_t triangle, float t, float u, float v) {
   Hit h;

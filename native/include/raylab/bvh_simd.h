@@ -143,6 +143,21 @@ struct Watertight4Ray {
   }
 };
 
+// The scalar watertight test of triangle `lane` of a packet, the decision every SIMD lane that the
+// filters keep ends in; a hit sets bit `out` of the result and slot `out` of t, u, v.
+inline int exact_lane(const WatertightRay& ray, const TrianglePacket& packet, int lane, int out, float tmin, float tmax,
+                      float* t_out, float* u_out, float* v_out) {
+  const glm::vec3 p0(packet.p[0][0][lane], packet.p[0][1][lane], packet.p[0][2][lane]);
+  const glm::vec3 p1(packet.p[1][0][lane], packet.p[1][1][lane], packet.p[1][2][lane]);
+  const glm::vec3 p2(packet.p[2][0][lane], packet.p[2][1][lane], packet.p[2][2][lane]);
+  TriangleHit h;
+  if (!intersect_watertight_exact(ray, p0, p1, p2, tmin, tmax, h)) return 0;
+  t_out[out] = h.t;
+  u_out[out] = h.u;
+  v_out[out] = h.v;
+  return 1 << out;
+}
+
 // intersect_watertight on the four lanes of a packet: the float filter on all four at once, then
 // intersect_watertight_exact on each lane the filter cannot reject. Returns the mask of lanes hit
 // with tmin < t <= tmax and their t, u, v.
@@ -191,19 +206,8 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   candidates &= ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
   if (candidates == 0) return 0;
   int mask = 0;
-  for (int lane = 0; lane < 4; ++lane) {
-    if (!(candidates >> lane & 1)) continue;
-    const glm::vec3 p0(packet.p[0][0][lane], packet.p[0][1][lane], packet.p[0][2][lane]);
-    const glm::vec3 p1(packet.p[1][0][lane], packet.p[1][1][lane], packet.p[1][2][lane]);
-    const glm::vec3 p2(packet.p[2][0][lane], packet.p[2][1][lane], packet.p[2][2][lane]);
-    TriangleHit h;
-    if (intersect_watertight_exact(r.ray, p0, p1, p2, tmin, tmax, h)) {
-      mask |= 1 << lane;
-      t_out[lane] = h.t;
-      u_out[lane] = h.u;
-      v_out[lane] = h.v;
-    }
-  }
+  for (int lane = 0; lane < 4; ++lane)
+    if (candidates >> lane & 1) mask |= exact_lane(r.ray, packet, lane, lane, tmin, tmax, t_out, u_out, v_out);
   return mask;
 }
 
@@ -276,18 +280,7 @@ __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertigh
   int mask = 0;
   for (; candidates != 0; candidates &= candidates - 1) {
     const int lane = __builtin_ctz(unsigned(candidates));
-    const TrianglePacket& packet = lane < 4 ? a : b;
-    const int l = lane & 3;
-    const glm::vec3 p0(packet.p[0][0][l], packet.p[0][1][l], packet.p[0][2][l]);
-    const glm::vec3 p1(packet.p[1][0][l], packet.p[1][1][l], packet.p[1][2][l]);
-    const glm::vec3 p2(packet.p[2][0][l], packet.p[2][1][l], packet.p[2][2][l]);
-    TriangleHit h;
-    if (intersect_watertight_exact(r.ray, p0, p1, p2, tmin, tmax, h)) {
-      mask |= 1 << lane;
-      t_out[lane] = h.t;
-      u_out[lane] = h.u;
-      v_out[lane] = h.v;
-    }
+    mask |= exact_lane(r.ray, lane < 4 ? a : b, lane & 3, lane, tmin, tmax, t_out, u_out, v_out);
   }
   return mask;
 }
