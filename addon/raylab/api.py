@@ -293,7 +293,7 @@ def camera_rays(camera, points):
 
 def image_size(camera):
     """(width, height) in pixels of the image render() makes with a camera dict (resolution times
-    percentage, as the renderer's camera rounds it)."""
+    percentage, in whole pixels as the renderer's camera counts them)."""
     rays = _raylab.camera_rays(camera, [[0.5, 0.5]])
     return int(rays["width"]), int(rays["height"])
 

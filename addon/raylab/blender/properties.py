@@ -68,9 +68,11 @@ def _probe_field(name):
 
 
 def _image_size(scene):
+    """The render's pixels, as Blender and raylab's camera count them (integer division: no float
+    rounding puts 29 % of 100 pixels at 28)."""
     render = scene.render
-    scale = render.resolution_percentage / 100.0
-    return int(render.resolution_x * scale), int(render.resolution_y * scale)
+    return (render.resolution_x * render.resolution_percentage // 100,
+            render.resolution_y * render.resolution_percentage // 100)
 
 
 _PIXEL_KEYS = ("probe_pixel_x_set", "probe_pixel_y_set")  # the ID properties holding what was set
