@@ -3,6 +3,7 @@
     V, T = raylab.load_mesh(path)                    # (V,3) float32, (T,3) uint32
     s = raylab.build(V, T, structure="bvh")          # one of raylab.STRUCTURES
     h = s.intersect(origins, directions)             # closest hits of N rays
+    h = s.intersect(o, d, per_ray=True)              # h.per_ray["triangle_tests"]: each ray's work
     o = s.occluded(origins, directions)              # any hit (shadow rays)
     st = s.story(origin, direction)                  # everything one ray did
     b = s.boxes()                                    # the boxes, for drawing
@@ -50,9 +51,10 @@ class _Record:
 
 
 class Hits(_Record):
-    """Closest hits of N rays: t (inf on miss), triangle, u, v, instance (-1 on miss), hit, stats."""
+    """Closest hits of N rays: t (inf on miss), triangle, u, v, instance (-1 on miss), hit, stats,
+    per_ray (see Structure.intersect)."""
 
-    __slots__ = ("t", "triangle", "u", "v", "instance", "hit", "stats")
+    __slots__ = ("t", "triangle", "u", "v", "instance", "hit", "stats", "per_ray")
 
     def __len__(self):
         return len(self.t)
@@ -69,9 +71,9 @@ class Statuses(_Record):
 
 
 class Occlusion(_Record):
-    """Any-hit results of N rays: hit (N,) bool, stats."""
+    """Any-hit results of N rays: hit (N,) bool, stats, per_ray (see Structure.intersect)."""
 
-    __slots__ = ("hit", "stats")
+    __slots__ = ("hit", "stats", "per_ray")
 
     def __len__(self):
         return len(self.hit)
@@ -144,18 +146,20 @@ class Structure:
         """A copy of the mesh: ((V,3) float32, (T,3) uint32)."""
         return self.native.mesh
 
-    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
         """Closest hits in (tmin, tmax] of rays given as (N,3) origins and directions (either may be
         one (3,) row shared by all rays). Returns Hits. With count=True, h.stats is a dict with
-        the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None. threads: how many
-        threads trace (None or 0 = all cores; 1 for single-thread timings, n - 1 to leave a core
-        free); the answers are the same on any number."""
-        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, threads))
+        the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None. With per_ray=True,
+        h.per_ray is a dict with the COUNTERS as keys, each an (N,) uint32 array of every ray's own
+        work (h.stats, then filled too, is their sum); otherwise None. threads: how many threads trace
+        (None or 0 = all cores; 1 for single-thread timings, n - 1 to leave a core free); the answers
+        and counts are the same on any number."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, per_ray, threads))
 
-    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
         """Whether anything is hit in (tmin, tmax]: the shadow-ray query. Returns Occlusion.
-        threads as in intersect()."""
-        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, threads))
+        count, per_ray and threads as in intersect()."""
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, per_ray, threads))
 
     def boxes(self):
         """The boxes: dict lo (B,3) f32, hi (B,3) f32, depth (B,) i32, leaf (B,) bool, triangle_count (B,) u32."""
@@ -240,14 +244,15 @@ class Scene:
         """Builds what changed since the last commit; queries need it."""
         self.native.commit()
 
-    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
-        """Closest hits of world-space rays, as Structure.intersect (threads too); h.instance says
-        which instance."""
-        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, threads))
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
+        """Closest hits of world-space rays, as Structure.intersect (count, per_ray and threads too);
+        h.instance says which instance. A ray's counts are the scene's: the top level's work plus
+        every queried instance's."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, per_ray, threads))
 
-    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
-        """Whether anything is hit, as Structure.occluded (threads too)."""
-        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, threads))
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
+        """Whether anything is hit, as Structure.occluded (count, per_ray and threads too)."""
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, per_ray, threads))
 
     def statuses(self, origins, directions, tmin=0.0, tmax=math.inf, threads=None):
         """Closest hits of world rays with each ray's status, as Structure.statuses (h.instance set)."""
