@@ -19,6 +19,7 @@ from . import _raylab
 
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
+    "COST_PASSES", "COST_PASS_INFO", "COST_RAYS", "COST_RAYS_INFO",
     "DEFAULTS", "RAY_STATUSES", "BuildError", "load_mesh", "build", "build_file",
     "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "image_size", "write_image",
 ]
@@ -30,6 +31,12 @@ TRIANGLE_TEST_INFO = {t["name"]: t for t in _raylab.TRIANGLE_TESTS}
 TRIANGLE_TESTS = tuple(TRIANGLE_TEST_INFO)                     # ("watertight", "moller_trumbore")
 COUNTER_INFO = {c["name"]: c for c in _raylab.COUNTERS}      # the keys of every stats dict, in order
 COUNTERS = tuple(COUNTER_INFO)
+# The cost passes (native/include/raylab/cost_passes.h): render-pass name -> counter, label, description;
+# render(...).cost holds every counter per pixel, these are the ones offered as passes.
+COST_PASS_INFO = {p["name"]: p for p in _raylab.COST_PASSES}
+COST_PASSES = tuple(COST_PASS_INFO)                            # ("raylab Rays", "raylab Box Tests", ...)
+COST_RAYS_INFO = {r["name"]: r for r in _raylab.COST_RAYS}     # render settings' cost_rays: "all", "primary"
+COST_RAYS = tuple(COST_RAYS_INFO)
 DEFAULTS = dict(_raylab.BUILD_DEFAULTS)                        # structure, max_depth, leaf_size, ...
 RAY_STATUSES = _raylab.RAY_STATUSES                            # a story's status, in rising priority
 BuildError = _raylab.BuildError
@@ -284,7 +291,10 @@ class Scene:
         return self.native.bounds()
 
 
-# The renderer (native/python/render_bindings.cpp) takes a Scene above or its native scene.
+# The renderer (native/python/render_bindings.cpp) takes a Scene above or its native scene. Its result
+# has image, instance, distance, stats, cancelled, and cost: every COUNTERS name -> (H, W) float32, each
+# pixel's traversal work over the rays settings["cost_rays"] names (COST_RAYS: "all", the default, or
+# "primary"), every super-sample's; with "all" they sum to stats' counters.
 render = _raylab.render
 
 
