@@ -3,10 +3,12 @@
     V, T = raylab.load_mesh(path)                    # (V,3) float32, (T,3) uint32
     s = raylab.build(V, T, structure="bvh")          # one of raylab.STRUCTURES
     h = s.intersect(origins, directions)             # closest hits of N rays
+    h = s.intersect(o, d, per_ray=True)              # h.per_ray["triangle_tests"]: each ray's work
     o = s.occluded(origins, directions)              # any hit (shadow rays)
     st = s.story(origin, direction)                  # everything one ray did
     b = s.boxes()                                    # the boxes, for drawing
     sc = raylab.Scene(structure="bvh")               # instances of shared meshes; sc.intersect(...)
+    heat = raylab.heat_map(counts, maximum=100)      # false colour on a fixed scale (see heat.py)
 
 Bad input raises ValueError naming the problem (for an argument: its name and what it accepts); a
 build over the memory budget raises BuildError.
@@ -15,11 +17,14 @@ import math
 import sys
 
 from . import _raylab
+from .heat import HEAT_COLOURS, heat_legend, heat_map, heat_scale_text, heat_ticks  # noqa: F401 (numpy only)
 
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
+    "COST_PASSES", "COST_PASS_INFO", "COST_RAYS", "COST_RAYS_INFO",
     "DEFAULTS", "RAY_STATUSES", "BuildError", "load_mesh", "build", "build_file",
     "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "image_size", "write_image",
+    "HEAT_COLOURS", "heat_map", "heat_legend", "heat_ticks", "heat_scale_text",
 ]
 
 # The core's vocabularies (native/python/vocabulary.cpp), never listed again in Python.
@@ -29,6 +34,12 @@ TRIANGLE_TEST_INFO = {t["name"]: t for t in _raylab.TRIANGLE_TESTS}
 TRIANGLE_TESTS = tuple(TRIANGLE_TEST_INFO)                     # ("watertight", "moller_trumbore")
 COUNTER_INFO = {c["name"]: c for c in _raylab.COUNTERS}      # the keys of every stats dict, in order
 COUNTERS = tuple(COUNTER_INFO)
+# The cost passes (native/include/raylab/cost_passes.h): render-pass name -> counter, label, description;
+# render(...).cost holds every counter per pixel, these are the ones offered as passes.
+COST_PASS_INFO = {p["name"]: p for p in _raylab.COST_PASSES}
+COST_PASSES = tuple(COST_PASS_INFO)                            # ("raylab Rays", "raylab Box Tests", ...)
+COST_RAYS_INFO = {r["name"]: r for r in _raylab.COST_RAYS}     # render settings' cost_rays: "all", "primary"
+COST_RAYS = tuple(COST_RAYS_INFO)
 DEFAULTS = dict(_raylab.BUILD_DEFAULTS)                        # structure, max_depth, leaf_size, ...
 RAY_STATUSES = _raylab.RAY_STATUSES                            # a story's status, in rising priority
 BuildError = _raylab.BuildError
@@ -50,9 +61,10 @@ class _Record:
 
 
 class Hits(_Record):
-    """Closest hits of N rays: t (inf on miss), triangle, u, v, instance (-1 on miss), hit, stats."""
+    """Closest hits of N rays: t (inf on miss), triangle, u, v, instance (-1 on miss), hit, stats,
+    per_ray (see Structure.intersect)."""
 
-    __slots__ = ("t", "triangle", "u", "v", "instance", "hit", "stats")
+    __slots__ = ("t", "triangle", "u", "v", "instance", "hit", "stats", "per_ray")
 
     def __len__(self):
         return len(self.t)
@@ -69,9 +81,9 @@ class Statuses(_Record):
 
 
 class Occlusion(_Record):
-    """Any-hit results of N rays: hit (N,) bool, stats."""
+    """Any-hit results of N rays: hit (N,) bool, stats, per_ray (see Structure.intersect)."""
 
-    __slots__ = ("hit", "stats")
+    __slots__ = ("hit", "stats", "per_ray")
 
     def __len__(self):
         return len(self.hit)
@@ -144,18 +156,20 @@ class Structure:
         """A copy of the mesh: ((V,3) float32, (T,3) uint32)."""
         return self.native.mesh
 
-    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
         """Closest hits in (tmin, tmax] of rays given as (N,3) origins and directions (either may be
         one (3,) row shared by all rays). Returns Hits. With count=True, h.stats is a dict with
-        the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None. threads: how many
-        threads trace (None or 0 = all cores; 1 for single-thread timings, n - 1 to leave a core
-        free); the answers are the same on any number."""
-        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, threads))
+        the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None. With per_ray=True,
+        h.per_ray is a dict with the COUNTERS as keys, each an (N,) uint32 array of every ray's own
+        work (h.stats, then filled too, is their sum); otherwise None. threads: how many threads trace
+        (None or 0 = all cores; 1 for single-thread timings, n - 1 to leave a core free); the answers
+        and counts are the same on any number."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, per_ray, threads))
 
-    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
         """Whether anything is hit in (tmin, tmax]: the shadow-ray query. Returns Occlusion.
-        threads as in intersect()."""
-        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, threads))
+        count, per_ray and threads as in intersect()."""
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, per_ray, threads))
 
     def boxes(self):
         """The boxes: dict lo (B,3) f32, hi (B,3) f32, depth (B,) i32, leaf (B,) bool, triangle_count (B,) u32."""
@@ -240,14 +254,15 @@ class Scene:
         """Builds what changed since the last commit; queries need it."""
         self.native.commit()
 
-    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
-        """Closest hits of world-space rays, as Structure.intersect (threads too); h.instance says
-        which instance."""
-        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, threads))
+    def intersect(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
+        """Closest hits of world-space rays, as Structure.intersect (count, per_ray and threads too);
+        h.instance says which instance. A ray's counts are the scene's: the top level's work plus
+        every queried instance's."""
+        return Hits(self.native.intersect(origins, directions, tmin, tmax, count, per_ray, threads))
 
-    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None):
-        """Whether anything is hit, as Structure.occluded (threads too)."""
-        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, threads))
+    def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):
+        """Whether anything is hit, as Structure.occluded (count, per_ray and threads too)."""
+        return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, per_ray, threads))
 
     def statuses(self, origins, directions, tmin=0.0, tmax=math.inf, threads=None):
         """Closest hits of world rays with each ray's status, as Structure.statuses (h.instance set)."""
@@ -279,7 +294,10 @@ class Scene:
         return self.native.bounds()
 
 
-# The renderer (native/python/render_bindings.cpp) takes a Scene above or its native scene.
+# The renderer (native/python/render_bindings.cpp) takes a Scene above or its native scene. Its result
+# has image, instance, distance, stats, cancelled, and cost: every COUNTERS name -> (H, W) float32, each
+# pixel's traversal work over the rays settings["cost_rays"] names (COST_RAYS: "all", the default, or
+# "primary"), every super-sample's; with "all" they sum to stats' counters.
 render = _raylab.render
 
 

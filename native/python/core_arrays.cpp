@@ -247,4 +247,21 @@ py::dict stats_to_dict(const TraversalStats& s) {
   return d;
 }
 
+py::dict per_ray_to_dict(std::span<const TraversalStats> per_ray) {
+  py::dict d;
+  for (const CounterInfo& c : kCounters) {
+    py::array_t<uint32_t> a(py::ssize_t(per_ray.size()));
+    uint32_t* p = a.mutable_data();
+    for (size_t i = 0; i < per_ray.size(); ++i) {
+      const uint64_t n = per_ray[i].*c.field;
+      if (n > std::numeric_limits<uint32_t>::max())
+        throw py::value_error(std::string("per_ray: ray ") + std::to_string(i) + " counted " + std::to_string(n) + " " +
+                              c.name + ", beyond uint32; use count=True for totals");
+      p[i] = uint32_t(n);
+    }
+    d[c.name] = a;
+  }
+  return d;
+}
+
 }  // namespace raylab::python

@@ -14,6 +14,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <span>
 #include <type_traits>
 #include <vector>
 
@@ -64,6 +65,9 @@ Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin, py
 py::dict hits_to_dict(const std::vector<Hit>& hits, bool single_instance);
 py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded);
 py::dict stats_to_dict(const TraversalStats& stats);
+// Each ray's counters: every kCounters name -> an (N,) uint32 array. A count beyond uint32 raises
+// (ValueError) rather than wrap.
+py::dict per_ray_to_dict(std::span<const TraversalStats> per_ray);
 
 // glm's column-major matrix as numpy's row-major (4,4) float32.
 py::array_t<float> matrix_to_array(const glm::mat4& m);
@@ -101,22 +105,27 @@ py::dict statuses_to_dict(const std::vector<Hit>& hits, const std::vector<RaySta
 
 
 
-// A batch query: rays from the arrays, `trace(rays, results, stats, threads)` with the GIL released
-// while the cores trace, then the results as a dict of arrays plus "stats" (None unless `count`).
+// A batch query: rays from the arrays, `trace(rays, results, stats, threads, per_ray)` with the GIL
+// released while the cores trace, then the results as a dict of arrays plus "stats" (the totals, None
+// unless `count` or `per_ray`) and "per_ray" (each ray's counters, None unless `per_ray`).
 template <class Result, class Trace, class ToDict>
 py::dict trace_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
-                      py::handle count_flag, py::handle threads_value, Trace trace, ToDict to_dict) {
+                      py::handle count_flag, py::handle per_ray_flag, py::handle threads_value, Trace trace,
+                      ToDict to_dict) {
   const std::vector<Ray> rays = rays_from_arrays(origins, directions, tmin, tmax);
-  const bool count = bool_parameter(count_flag, "count");
+  const bool per_ray = bool_parameter(per_ray_flag, "per_ray");
+  const bool count = bool_parameter(count_flag, "count") || per_ray;
   const int threads = threads_parameter(threads_value);
   std::vector<Result> results(rays.size());
+  std::vector<TraversalStats> own(per_ray ? rays.size() : 0);
   TraversalStats stats;
   {
     py::gil_scoped_release release;
-    trace(rays, results, count ? &stats : nullptr, threads);
+    trace(rays, results, count ? &stats : nullptr, threads, std::span<TraversalStats>(own));
   }
   py::dict d = to_dict(results);
   d["stats"] = count ? py::object(stats_to_dict(stats)) : py::none();
+  d["per_ray"] = per_ray ? py::object(per_ray_to_dict(own)) : py::none();
   return d;
 }
 
@@ -124,12 +133,11 @@ py::dict trace_arrays(py::handle origins, py::handle directions, py::handle tmin
 // intersect_any).
 template <class Target>
 py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
-                        py::handle tmax, py::handle count, py::handle threads) {
+                        py::handle tmax, py::handle count, py::handle per_ray, py::handle threads) {
   return trace_arrays<Hit>(
-      origins, directions, tmin, tmax, count, threads,
-      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats, int n_threads) {
-        intersect_closest(target, rays, hits, stats, n_threads);
-      },
+      origins, directions, tmin, tmax, count, per_ray, threads,
+      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats, int n_threads,
+          std::span<TraversalStats> own) { intersect_closest(target, rays, hits, stats, n_threads, own); },
       [](const std::vector<Hit>& hits) { return hits_to_dict(hits, std::is_same_v<Target, Structure>); });
 }
 
@@ -139,8 +147,9 @@ py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmi
                        py::handle threads, bool single_instance, Trace trace) {
   std::vector<RayStatus> statuses;
   return trace_arrays<Hit>(
-      origins, directions, tmin, tmax, py::bool_(false), threads,
-      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats*, int n_threads) {
+      origins, directions, tmin, tmax, py::bool_(false), py::bool_(false), threads,
+      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats*, int n_threads,
+          std::span<TraversalStats>) {
         statuses.resize(rays.size());
         trace(rays, hits, statuses, n_threads);
       },
@@ -149,12 +158,11 @@ py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmi
 
 template <class Target>
 py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
-                       py::handle tmax, py::handle count, py::handle threads) {
+                       py::handle tmax, py::handle count, py::handle per_ray, py::handle threads) {
   return trace_arrays<uint8_t>(
-      origins, directions, tmin, tmax, count, threads,
-      [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats, int n_threads) {
-        intersect_any(target, rays, occluded, stats, n_threads);
-      },
+      origins, directions, tmin, tmax, count, per_ray, threads,
+      [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats, int n_threads,
+          std::span<TraversalStats> own) { intersect_any(target, rays, occluded, stats, n_threads, own); },
       occlusion_to_dict);
 }
 

@@ -99,9 +99,11 @@ void bind_core(py::module_& m) {
       .def_property_readonly("mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
                              "A copy of the mesh: (vertices, triangles).")
       .def("intersect", &intersect_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("per_ray") = false,
+           py::arg("threads") = py::none())
       .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("per_ray") = false,
+           py::arg("threads") = py::none())
       .def("boxes", &boxes)
       .def("statuses", &statuses, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("threads") = py::none())

@@ -111,9 +111,11 @@ void bind_scene(py::module_& m) {
              s.commit();
            })
       .def("intersect", &intersect_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("per_ray") = false,
+           py::arg("threads") = py::none())
       .def("occluded", &occluded_rays<Scene>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
+           py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("per_ray") = false,
+           py::arg("threads") = py::none())
       .def("clear_instances", &Scene::clear_instances)
       .def(
           "statuses",

@@ -9,6 +9,7 @@
 
 #include <pybind11/numpy.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -16,6 +17,7 @@
 #include <mutex>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -84,6 +86,9 @@ class Fields {
   }
   // One of `choices`; returns its position.
   int choice(const char* key, std::initializer_list<const char*> choices, int fallback, bool required = false) {
+    return choice(key, std::span<const char* const>(choices.begin(), choices.size()), fallback, required);
+  }
+  int choice(const char* key, std::span<const char* const> choices, int fallback, bool required = false) {
     const py::object v = take(key);
     if (!v) {
       if (required) value_error(what_ + " is missing the key '" + key + "'");
@@ -100,6 +105,13 @@ class Fields {
     }
     for (const char* c : choices) list += std::string(list.empty() ? "" : ", ") + "'" + c + "'";
     value_error(name(key) + " must be one of " + list + ", got " + describe(v));
+  }
+  // A row of a vocabulary table (rows with a `name`) by its name.
+  template <class Row, size_t N>
+  const Row& row(const char* key, const Row (&table)[N], const Row& fallback) {
+    std::array<const char*, N> names;
+    for (size_t i = 0; i < N; ++i) names[i] = table[i].name;
+    return table[choice(key, names, int(&fallback - table))];
   }
   // Call after reading every key.
   void finish() const {
@@ -221,6 +233,7 @@ RenderSettings settings_from_dict(py::handle object) {
   s.shadow_terminator = f.boolean("shadow_terminator", s.shadow_terminator);
   s.threads = f.integer("threads", s.threads);
   s.tile_size = f.integer("tile_size", s.tile_size);
+  s.cost_rays = f.row("cost_rays", kCostRays, kCostRays[0]).value;
   f.finish();
   try {
     s.validate();
@@ -246,6 +259,7 @@ struct PyRenderResult {
   py::dict stats;
   py::array_t<int32_t> instance;
   py::array_t<float> distance;
+  py::dict cost;
 };
 
 template <class T>
@@ -253,6 +267,19 @@ py::array_t<T> to_array(const std::vector<T>& data, std::vector<py::ssize_t> sha
   py::array_t<T> a(shape);
   std::copy(data.begin(), data.end(), a.mutable_data());
   return a;
+}
+
+// Every counter of every pixel: name -> (H, W) float32, row 0 the top row. float32, as a render pass
+// holds it: exact up to 2^24 per pixel.
+py::dict cost_dict(const std::vector<TraversalStats>& work, py::ssize_t h, py::ssize_t w) {
+  py::dict d;
+  for (const CounterInfo& c : kCounters) {
+    py::array_t<float> a({h, w});
+    float* p = a.mutable_data();
+    for (size_t i = 0; i < work.size(); ++i) p[i] = float(work[i].*c.field);
+    d[c.name] = a;
+  }
+  return d;
 }
 
 py::dict stats_dict(const RenderStats& s) {
@@ -337,7 +364,8 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
 
   const py::ssize_t h = result.height, w = result.width;
   PyRenderResult out{to_array(result.image, {h, w, 4}), result.cancelled, stats_dict(result.stats),
-                     to_array(result.instance, {h, w}), to_array(result.distance, {h, w})};
+                     to_array(result.instance, {h, w}), to_array(result.distance, {h, w}),
+                     cost_dict(result.pixel_work, h, w)};
   if (out.stats["structure"].cast<std::string>().empty() && py::hasattr(scene_object, "structure"))
     out.stats["structure"] = py::str(scene_object.attr("structure"));
   return out;
@@ -352,6 +380,9 @@ void bind_render(py::module_& m) {
       .def_readonly("stats", &PyRenderResult::stats)
       .def_readonly("instance", &PyRenderResult::instance, "(H, W) int32 instance of the pixel-centre ray, -1 on miss")
       .def_readonly("distance", &PyRenderResult::distance, "(H, W) float32 distance of that hit, inf on miss")
+      .def_readonly("cost", &PyRenderResult::cost,
+                    "Each pixel's traversal work: every COUNTERS name -> (H, W) float32, row 0 the top row, "
+                    "summed over the rays settings['cost_rays'] names (all, or primary) of all its samples")
       .def("__repr__", [](const PyRenderResult& r) {
         return "<raylab.RenderResult " + std::to_string(r.image.shape(1)) + "x" + std::to_string(r.image.shape(0)) +
                (r.cancelled ? " cancelled>" : ">");
@@ -394,7 +425,8 @@ void bind_render(py::module_& m) {
         py::arg("settings") = py::none(), py::arg("progress") = py::none(),
         "Renders a committed raylab.Scene; progress(fraction) is called several times a second and "
         "cancels the render by returning True. settings (all optional): super_sampling (1-4), max_depth, "
-        "shadows, background, ambient, robust_offset, fixed_epsilon, shadow_terminator, threads, tile_size.");
+        "shadows, background, ambient, robust_offset, fixed_epsilon, shadow_terminator, threads, tile_size, "
+        "cost_rays (one of COST_RAYS: which of a pixel's rays its result.cost counts).");
 }
 
 }  // namespace raylab::python

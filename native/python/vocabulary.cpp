@@ -1,9 +1,11 @@
 // The core's vocabularies, exported once so that Python never lists them again: the structure kinds,
-// the triangle tests, the counters, the ray statuses and the build defaults. api.py, the add-on's menus and panels, the
-// compare table, the benchmark and the tests read these.
+// the triangle tests, the counters, the cost passes and which rays they count, the ray statuses and
+// the build defaults. api.py, the add-on's menus and panels, the compare table, the benchmark and the
+// tests read these.
 #include "bindings.h"
 #include "core_arrays.h"
 
+#include "raylab/cost_passes.h"
 #include "raylab/structure.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
@@ -55,6 +57,13 @@ void bind_vocabulary(py::module_& m) {
   using C = CounterInfo;
   m.attr("COUNTERS") = table(std::span<const C>(kCounters), field("name", &C::name), field("label", &C::label),
                              field("description", &C::description), field("object_work", &C::object_work));
+
+  using P = CostPassInfo;
+  m.attr("COST_PASSES") = table(std::span<const P>(kCostPasses), field("name", &P::name), field("counter", &P::counter),
+                                field("label", &P::label), field("description", &P::description));
+  using R = CostRaysInfo;
+  m.attr("COST_RAYS") = table(std::span<const R>(kCostRays), field("name", &R::name), field("label", &R::label),
+                              field("description", &R::description));
 
   m.attr("RAY_STATUSES") = py::tuple(py::cast(std::vector<std::string>(std::begin(kRayStatusNames), std::end(kRayStatusNames))));
 

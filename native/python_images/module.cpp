@@ -1,4 +1,5 @@
-// The `_raylab_images` extension module: raylab.write_image through OpenImageIO. It is a module of its
+// The `_raylab_images` extension module: raylab.write_image through OpenImageIO, and read_channels
+// (every channel of a file by name, what the tests read multilayer EXRs with). It is a module of its
 // own so that the one Blender loads (`_raylab`) needs no OpenImageIO, whose Debian build pulls in some
 // 250 shared libraries (codecs, OpenCV, ...): the Blender extension ships `_raylab` alone and saves
 // images through Blender (api.write_image).
@@ -35,10 +36,32 @@ void write_image_from_python(py::handle path_object, py::handle image_object) {
   raylab::write_image(path, rgba, w, h);
 }
 
+// Every channel by name -> (H, W) float32, row 0 the top row.
+py::dict read_channels_from_python(py::handle path_object) {
+  const std::string path = py::module_::import("os").attr("fspath")(path_object).cast<std::string>();
+  raylab::ImageChannels image;
+  {
+    py::gil_scoped_release release;
+    image = raylab::read_channels(path);
+  }
+  const size_t n = image.names.size(), pixels = size_t(image.width) * size_t(image.height);
+  py::dict out;
+  for (size_t c = 0; c < n; ++c) {
+    py::array_t<float> a({py::ssize_t(image.height), py::ssize_t(image.width)});
+    float* p = a.mutable_data();
+    for (size_t i = 0; i < pixels; ++i) p[i] = image.pixels[i * n + c];
+    out[py::str(image.names[c])] = a;
+  }
+  return out;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_raylab_images, m) {
   m.doc() = "raylab's image files (OpenImageIO)";
   m.def("write_image", &write_image_from_python, py::arg("path"), py::arg("image"),
         "Writes an (H, W, 4) linear image: .png 8-bit sRGB-encoded, .exr float.");
+  m.def("read_channels", &read_channels_from_python, py::arg("path"),
+        "Reads every channel of an image file: {channel name: (H, W) float32, row 0 the top row}; a "
+        "multilayer EXR's names are 'ViewLayer.Pass.Channel'. RuntimeError naming the path if unreadable.");
 }

@@ -48,4 +48,19 @@ void write_image(const std::string& path, std::span<const float> rgba, int width
   if (!out->close()) fail(out->geterror());
 }
 
+ImageChannels read_channels(const std::string& path) {
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) throw std::runtime_error("cannot read image '" + path + "': " + OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  ImageChannels out;
+  out.width = spec.width;
+  out.height = spec.height;
+  out.names = spec.channelnames;
+  out.pixels.resize(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, out.pixels.data()))
+    throw std::runtime_error("cannot read image '" + path + "': " + in->geterror());
+  in->close();
+  return out;
+}
+
 }  // namespace raylab

@@ -437,6 +437,7 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
   result.image.assign(size_t(w) * h * 4, 0.0f);
   result.instance.assign(size_t(w) * h, -1);
   result.distance.assign(size_t(w) * h, kInfinity);
+  result.pixel_work.assign(size_t(w) * h, TraversalStats{});
 
   const int ts = settings.tile_size;
   const int tiles_x = (w + ts - 1) / ts, tiles_y = (h + ts - 1) / ts;
@@ -463,18 +464,24 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
         const size_t pixel = size_t(y) * w + x;
         PixelRandom random(pixel);
         glm::vec3 sum(0.0f);
+        // This pixel's work alone (its cost buffers), added to the thread's totals when it is done.
+        RenderStats own;
+        TraversalStats primary;
         for (int j = 0; j < ss; ++j)
           for (int i = 0; i < ss; ++i) {
             const Ray ray = camera.ray(float(x) + (float(i) + 0.5f) / float(ss), float(y) + (float(j) + 0.5f) / float(ss));
-            ++stats.rays_primary;
+            ++own.rays_primary;
             Hit hit;
-            const bool found = scene.closest(ray, hit, &stats.traversal);
+            const bool found = scene.closest(ray, hit, &primary);
             if (centre_is_sample && i == ss / 2 && j == ss / 2 && found) {
               result.instance[pixel] = int32_t(hit.instance);
               result.distance[pixel] = hit.t;  // the direction has unit length
             }
-            sum += found ? tracer.shade(ray, hit, 0, stats, random) : settings.background;
+            sum += found ? tracer.shade(ray, hit, 0, own, random) : settings.background;
           }
+        own.traversal += primary;
+        result.pixel_work[pixel] = settings.cost_rays == CostRays::Primary ? primary : own.traversal;
+        stats += own;
         if (!centre_is_sample) {
           // The centre is no sample of an even grid: probe it apart, uncounted, as it is no render work.
           const Ray ray = camera.ray(float(x) + 0.5f, float(y) + 0.5f);

@@ -309,13 +309,13 @@ double Scene::build_seconds() const {
 }
 
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
-                       int threads) {
-  intersect_closest(*scene.snapshot(), rays, hits, stats, threads);
+                       int threads, std::span<TraversalStats> per_ray) {
+  intersect_closest(*scene.snapshot(), rays, hits, stats, threads, per_ray);
 }
 
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads) {
-  intersect_any(*scene.snapshot(), rays, occluded, stats, threads);
+                   TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
+  intersect_any(*scene.snapshot(), rays, occluded, stats, threads, per_ray);
 }
 
 void intersect_with_status(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,

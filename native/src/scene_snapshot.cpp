@@ -274,15 +274,17 @@ size_t SceneSnapshot::memory_bytes() const {
 }
 
 void intersect_closest(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats, int threads) {
+                       TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
-  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { scene.closest(rays[i], hits[i], st); });
+  for_each_ray(
+      rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { scene.closest(rays[i], hits[i], st); }, per_ray);
 }
 
 void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads) {
+                   TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
-  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); });
+  for_each_ray(
+      rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); }, per_ray);
 }
 
 void intersect_with_status(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,

@@ -78,22 +78,25 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
 }
 
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats, int threads) {
+                       TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
-  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) {
-    Hit h;
-    if (st) s.closest(rays[i], h, *st);
-    else s.closest(rays[i], h);
-    hits[i] = h;
-  });
+  for_each_ray(
+      rays.size(), threads, stats,
+      [&](size_t i, TraversalStats* st) {
+        Hit h;
+        if (st) s.closest(rays[i], h, *st);
+        else s.closest(rays[i], h);
+        hits[i] = h;
+      },
+      per_ray);
 }
 
 void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads) {
+                   TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
-  for_each_ray(rays.size(), threads, stats, [&](size_t i, TraversalStats* st) {
-    occluded[i] = st ? s.any(rays[i], *st) : s.any(rays[i]);
-  });
+  for_each_ray(
+      rays.size(), threads, stats,
+      [&](size_t i, TraversalStats* st) { occluded[i] = st ? s.any(rays[i], *st) : s.any(rays[i]); }, per_ray);
 }
 
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,

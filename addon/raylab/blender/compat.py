@@ -46,12 +46,21 @@ def corner_normals(mesh):
     return normals.reshape(-1, 3)
 
 
-def set_pass_pixels(render_pass, rgba):
-    """Fills a render result pass from (N,4) float32 pixels, bottom row first. 4.x's foreach_set wants
-    the N*4 numbers flat, 3.x's one row of 4 per pixel; both report the other shape as a TypeError
-    before writing anything (and len(rect) is N on both, so it cannot tell them apart)."""
-    rgba = np.ascontiguousarray(rgba, np.float32).reshape(-1, 4)
+def set_pass_pixels(render_pass, pixels):
+    """Fills a render result pass from its pixels, bottom row first: (H, W, C), (N, C) or, for a
+    1-channel pass, (H, W) float32. 4.x's foreach_set wants the N*C numbers flat, 3.x's one row of C per
+    pixel; both report the other shape as a TypeError before writing anything (and len(rect) is N on
+    both, so it cannot tell them apart)."""
+    pixels = np.ascontiguousarray(pixels, np.float32).reshape(-1, render_pass.channels)
     try:
-        render_pass.rect.foreach_set(rgba.ravel())
+        render_pass.rect.foreach_set(pixels.ravel())
     except TypeError:
-        render_pass.rect.foreach_set(rgba)
+        render_pass.rect.foreach_set(pixels)
+
+
+def update_render_passes(view_layer):
+    """Asks the render engine again which passes the View Layer delivers (after raylab's pass settings
+    changed), where the release has ViewLayer.update_render_passes."""
+    update = getattr(view_layer, "update_render_passes", None)
+    if update is not None:
+        update()

@@ -5,17 +5,20 @@ import threading
 import bpy
 
 from .. import api
-from . import compat, properties, render_stats, viewport_panels
+from . import compat, cost_passes, properties, render_stats, viewport_panels
 from .scene_export import build_scene, export_scene, render_settings
 
-def render_exported(exported, props, structure=None, super_sampling=None, progress=None):
+
+def render_exported(exported, props, structure=None, super_sampling=None, progress=None,
+                    cost_rays=api.COST_RAYS[0]):
     """Build the export with `structure` (default: the scene's) and render it; returns raylab's result.
+    cost_rays: which rays the result's per-pixel cost counts (api.COST_RAYS).
 
     Raises ExportError, ValueError (bad geometry or settings) or raylab.BuildError (memory budget)."""
     scene, _ = build_scene(exported, structure=structure or props.structure,
                            max_depth=properties.depth_setting(props), leaf_size=props.leaf_size)
     return api.render(scene, exported.camera, exported.lights, exported.materials,
-                         render_settings(exported, props, super_sampling), progress=progress)
+                      render_settings(exported, props, super_sampling, cost_rays), progress=progress)
 
 
 # F12 renders in a job thread, while the main thread draws panels that read the scene's ID properties:
@@ -79,24 +82,34 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
     bl_label = "raylab"
     bl_use_preview = False
 
+    def update_render_passes(self, scene=None, renderlayer=None):
+        cost_passes.register_passes(self, scene, renderlayer)
+
     def render(self, depsgraph):
         scene = depsgraph.scene
         props = scene.raylab_render
+        view_layer = depsgraph.view_layer
+        passes = view_layer.raylab_passes
         self.update_stats("", f"raylab {props.structure}: exporting the scene")
         try:
             exported = export_scene(depsgraph)
             self.update_stats("", f"raylab {props.structure}: building and rendering")
-            result = render_exported(exported, props, progress=self._progress)
+            result = render_exported(exported, props, progress=self._progress, cost_rays=passes.cost_rays)
         except (ValueError, api.BuildError) as error:
             self.report({'ERROR'}, f"raylab: {error}")
             self.update_stats("", f"raylab: {error}")
             return
-        self._write_image(result.image)
+        self._write_result(result, view_layer)
         if result.cancelled:
             self.update_stats("", f"raylab {props.structure}: cancelled")
             return
-        _store_last_render(scene.original.name_full, render_stats.record(result.stats, props.super_sampling))
+        record = render_stats.record(result.stats, props.super_sampling)
         line = render_stats.line(result.stats)
+        scale = cost_passes.heat_scale(passes)
+        if scale is not None:  # stated with the image, so that two renders compare on one scale
+            record[render_stats.HEAT_SCALE] = scale
+            line += f" | heat: {scale}"
+        _store_last_render(scene.original.name_full, record)
         # The info text is printed by background renders but cleared from the render window when the
         # render ends; the result's message (error_set) is what the window keeps showing after it.
         self.update_stats("", line)
@@ -106,12 +119,15 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         self.update_progress(fraction)
         return self.test_break()
 
-    def _write_image(self, image):
-        height, width = image.shape[:2]
-        result = self.begin_result(0, 0, width, height)
+    def _write_result(self, result, view_layer):
+        height, width = result.image.shape[:2]
+        # This view layer's part of the render result: Combined and the cost passes it registered.
+        blender_result = self.begin_result(0, 0, width, height, layer=view_layer.name)
+        layer = blender_result.layers[0]
         # raylab's row 0 is the top of the picture; Blender's buffers start at the bottom row.
-        compat.set_pass_pixels(result.layers[0].passes["Combined"], image[::-1])
-        self.end_result(result)
+        compat.set_pass_pixels(layer.passes["Combined"], result.image[::-1])
+        cost_passes.write_passes(layer, result, view_layer.raylab_passes)
+        self.end_result(blender_result)
 
 
 class RaylabRenderPanel:

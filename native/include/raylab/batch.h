@@ -16,11 +16,25 @@ namespace raylab {
 
 // Runs `query(i, stats_or_null)` for every ray index in parallel (TBB), on at most `threads` threads
 // (0: all cores), as the renderer's RenderSettings::threads. With `stats`, each thread counts into its
-// own TraversalStats and the totals are added to *stats at the end. Every ray's answer is the same
-// on any number of threads: only the split of the work changes.
+// own TraversalStats and the totals are added to *stats at the end. With `per_ray` (one per ray, or
+// empty for none), each ray counts into its own per_ray[i], and *stats (if given) gets their sum: the
+// totals and each ray's counts are the same StatsRecord's. Every ray's answer is the same on any
+// number of threads: only the split of the work changes.
 template <class Query>
-void for_each_ray(size_t n, int threads, TraversalStats* stats, Query query) {
+void for_each_ray(size_t n, int threads, TraversalStats* stats, Query query, std::span<TraversalStats> per_ray = {}) {
+  if (!per_ray.empty() && per_ray.size() != n) throw std::invalid_argument("per_ray and rays differ in length");
   const auto run = [&] {
+    if (!per_ray.empty()) {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          per_ray[i] = TraversalStats{};
+          query(i, &per_ray[i]);
+        }
+      });
+      if (stats)
+        for (const TraversalStats& s : per_ray) *stats += s;
+      return;
+    }
     if (!stats) {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) query(i, nullptr);

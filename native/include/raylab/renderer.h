@@ -5,6 +5,7 @@
 #pragma once
 
 #include "raylab/camera.h"
+#include "raylab/cost_passes.h"
 #include "raylab/light.h"
 #include "raylab/material.h"
 #include "raylab/scene.h"
@@ -32,6 +33,7 @@ struct RenderSettings {
   bool shadow_terminator = true;
   int threads = 0;               // 0: all
   int tile_size = 32;
+  CostRays cost_rays = CostRays::All;  // which of a pixel's rays RenderResult::pixel_work counts
 
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
@@ -69,6 +71,9 @@ struct RenderResult {
   std::vector<float> image;       // height x width x RGBA, linear, top row first
   std::vector<int32_t> instance;  // height x width: instance hit by the pixel-centre ray, -1 on miss
   std::vector<float> distance;    // height x width: |hit - ray origin| of that ray, inf on miss
+  // height x width: the traversal work of each pixel's rays (settings.cost_rays: all of them, or the
+  // primary ones), every sample's; with CostRays::All they add up to stats.traversal.
+  std::vector<TraversalStats> pixel_work;
   bool cancelled = false;         // tiles not rendered keep zero colour
   RenderStats stats;
 };

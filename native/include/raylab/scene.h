@@ -75,11 +75,11 @@ class Scene {
 void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec3> corner_normals);
 
 // Batch queries over one snapshot of the scene, parallel over rays (TBB) on at most `threads` threads
-// (0: all cores). `stats` may be null.
+// (0: all cores). `stats` may be null; `per_ray` as for a Structure's.
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
-                       int threads = 0);
+                       int threads = 0, std::span<TraversalStats> per_ray = {});
 void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads = 0);
+                   TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
 void intersect_with_status(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
                            std::span<RayStatus> statuses, int threads = 0);
 

@@ -112,11 +112,11 @@ using SceneSnapshotPtr = std::shared_ptr<const SceneSnapshot>;
 Bounds transform_bounds(const Bounds& b, const glm::mat4& m);
 
 // Batch queries over one snapshot, parallel over rays (TBB) on at most `threads` threads (0: all
-// cores). `stats` may be null.
+// cores). `stats` may be null; `per_ray` as for a Structure's.
 void intersect_closest(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats, int threads = 0);
+                       TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
 void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads = 0);
+                   TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
 // Closest hits and each ray's status, what its story would say: the probe's fan.
 void intersect_with_status(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
                            std::span<RayStatus> statuses, int threads = 0);

@@ -143,11 +143,12 @@ class StructureBase : public Structure {
 std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& settings);
 
 // Batch queries, parallel over rays (TBB) on at most `threads` threads (0: all cores). `stats` may be
-// null: then nothing is counted.
+// null: then nothing is counted. `per_ray`, one per ray or empty, gets each ray's own counters (and
+// `stats` their sum).
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats, int threads = 0);
+                       TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
 void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads = 0);
+                   TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
 // Closest hits and each ray's status (what its story would say, without recording the story): the
 // probe's fan of thousands of rays.
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,

@@ -1,0 +1,151 @@
+"""raylab's cost passes inside Blender: the View Layer's checkboxes register the passes (the compositor
+and the pass menu see them), an F12 render writes them into a multilayer EXR, and their values are the
+API's own counts of the same rays; the heat pass is those counts in raylab.heat_map's colours on the
+stated scale, with its legend."""
+import os
+import tempfile
+
+import bpy
+import numpy as np
+import pytest
+
+import raylab
+from raylab import _raylab_images
+from raylab.blender import cost_passes, default_scene, properties, scene_export
+
+RESOLUTION = (60, 45)
+
+
+@pytest.fixture
+def demo_scene():
+    scene = bpy.context.scene
+    default_scene.build_default_scene(scene, resolution=RESOLUTION)
+    scene.render.engine = 'RAYLAB'
+    scene.raylab_render.structure = "bvh"
+    scene.raylab_render.super_sampling = 1
+    passes = scene.view_layers[0].raylab_passes
+    for name in raylab.COST_PASSES:
+        setattr(passes, cost_passes.use_property(name), False)
+    passes.cost_rays = "all"
+    passes.use_heat = False
+    return scene
+
+
+def enable(scene, names, cost_rays="all"):
+    passes = scene.view_layers[0].raylab_passes
+    for name in names:
+        setattr(passes, cost_passes.use_property(name), True)
+    passes.cost_rays = cost_rays
+
+
+def render_exr(scene):
+    """F12 with multilayer EXR output written to disk: {channel name: (H, W) float32, row 0 the top}."""
+    path = os.path.join(tempfile.mkdtemp(prefix="raylab_passes_"), "render.exr")
+    scene.render.image_settings.file_format = 'OPEN_EXR_MULTILAYER'
+    scene.render.image_settings.color_depth = '32'
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return _raylab_images.read_channels(path)
+
+
+def channel(scene, pass_name):
+    return f"{scene.view_layers[0].name}.{pass_name}.{cost_passes.CHANNEL_ID}"
+
+
+def api_counts(scene):
+    """The API's per-ray counts of every pixel centre's camera ray, on the scene the render engine builds."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    exported = scene_export.export_scene(depsgraph)
+    props = scene.raylab_render
+    model, _ = scene_export.build_scene(exported, structure=props.structure,
+                                        max_depth=properties.depth_setting(props), leaf_size=props.leaf_size)
+    width, height = raylab.image_size(exported.camera)
+    ys, xs = np.mgrid[0:height, 0:width]
+    origins, directions = raylab.camera_rays(exported.camera, np.column_stack([xs.ravel(), ys.ravel()]) + 0.5)
+    hits = model.intersect(origins, directions, tmin=exported.camera["clip_start"], per_ray=True)
+    return {name: values.reshape(height, width) for name, values in hits.per_ray.items()}
+
+
+def render_layer_outputs(scene):
+    """The outputs the compositor's Render Layers node offers: what the View Layer registered."""
+    scene.use_nodes = True
+    node = next(n for n in scene.node_tree.nodes if n.type == 'R_LAYERS')
+    return {output.name for output in node.outputs if output.enabled}
+
+
+def test_the_view_layer_registers_the_passes_it_enables(demo_scene):
+    first, second = raylab.COST_PASSES[:2]
+    assert not set(raylab.COST_PASSES) & render_layer_outputs(demo_scene)
+    enable(demo_scene, [first, second])
+    assert render_layer_outputs(demo_scene) & set(raylab.COST_PASSES) == {first, second}
+    setattr(demo_scene.view_layers[0].raylab_passes, cost_passes.use_property(first), False)
+    assert render_layer_outputs(demo_scene) & set(raylab.COST_PASSES) == {second}
+
+
+def test_a_render_without_cost_passes_writes_none(demo_scene):
+    channels = render_exr(demo_scene)
+    assert f"{demo_scene.view_layers[0].name}.Combined.R" in channels
+    assert not [name for name in channels if "raylab" in name]
+
+
+@pytest.mark.parametrize("structure", raylab.STRUCTURES)
+def test_primary_passes_in_the_exr_equal_the_api_counts_pixel_by_pixel(demo_scene, structure):
+    demo_scene.raylab_render.structure = structure
+    enable(demo_scene, raylab.COST_PASSES, cost_rays="primary")
+    channels = render_exr(demo_scene)
+    expected = api_counts(demo_scene)
+    for name, info in raylab.COST_PASS_INFO.items():
+        values = channels[channel(demo_scene, name)]
+        assert values.shape == (RESOLUTION[1], RESOLUTION[0])
+        assert np.array_equal(values, expected[info["counter"]].astype(np.float32)), (structure, name)
+    assert expected["triangle_tests"].max() > 0
+
+
+def test_all_ray_passes_add_up_to_the_renders_totals(demo_scene):
+    demo_scene.raylab_render.super_sampling = 2
+    enable(demo_scene, raylab.COST_PASSES, cost_rays="all")
+    channels = render_exr(demo_scene)
+    record = demo_scene["raylab_last_render"]
+    assert record["rays"] > record["rays_primary"]  # shadow rays are in the passes too
+    for name, info in raylab.COST_PASS_INFO.items():
+        total = channels[channel(demo_scene, name)].sum(dtype=np.float64)
+        assert total == record[info["counter"]], name
+
+
+def heat_channels(scene, channels):
+    """The heat pass from the EXR as (H, W, 4), row 0 the top."""
+    layer = scene.view_layers[0].name
+    return np.stack([channels[f"{layer}.{cost_passes.HEAT_PASS}.{c}"] for c in "RGBA"], axis=-1)
+
+
+def enable_heat(scene, pass_name, maximum, legend):
+    passes = scene.view_layers[0].raylab_passes
+    passes.use_heat = True
+    passes.heat_pass = pass_name
+    passes.heat_maximum = maximum
+    passes.heat_legend = legend
+    passes.cost_rays = "primary"
+
+
+@pytest.mark.parametrize("structure", ["none", "bvh"])
+def test_the_heat_pass_is_the_counts_in_false_colour_on_the_stated_scale(demo_scene, structure):
+    demo_scene.raylab_render.structure = structure
+    triangles = next(name for name, info in raylab.COST_PASS_INFO.items() if info["counter"] == "triangle_tests")
+    enable_heat(demo_scene, triangles, 500.0, legend=True)  # 60 x 45: too small for the legend
+    assert cost_passes.HEAT_PASS in render_layer_outputs(demo_scene)
+    heat = heat_channels(demo_scene, render_exr(demo_scene))
+    expected = raylab.heat_map(api_counts(demo_scene)["triangle_tests"], 500.0)
+    assert np.array_equal(heat, expected)
+    scale = raylab.heat_scale_text("Triangle tests", 500.0)
+    assert demo_scene["raylab_last_render"]["heat_scale"] == scale
+
+
+def test_the_heat_pass_carries_its_legend_in_its_bottom_rows(demo_scene):
+    demo_scene.render.resolution_x, demo_scene.render.resolution_y = 160, 120
+    nodes = next(name for name, info in raylab.COST_PASS_INFO.items() if info["counter"] == "nodes_visited")
+    enable_heat(demo_scene, nodes, 40.0, legend=True)
+    heat = heat_channels(demo_scene, render_exr(demo_scene))
+    legend = raylab.heat_legend(40.0, width=160)
+    expected = raylab.heat_map(api_counts(demo_scene)["nodes_visited"], 40.0)
+    assert np.array_equal(heat[-len(legend):], legend)
+    assert np.array_equal(heat[:-len(legend)], expected[:-len(legend)])
