@@ -21,10 +21,12 @@ def use_property(pass_name):
 
 
 def _passes_changed(self, context):
-    # The pass menu, the compositor's Render Layers node and the EXR follow the checkboxes at once.
-    view_layer = getattr(context, "view_layer", None)
-    if view_layer is not None:
-        compat.update_render_passes(view_layer)
+    # The pass menu and the compositor's Render Layers node follow the checkboxes at once. The view
+    # layer is the one holding these settings (self.id_data is its scene), not the window's; a ViewLayer
+    # has no path from its scene to resolve, so it is found by its settings' address.
+    for view_layer in self.id_data.view_layers:
+        if view_layer.raylab_passes.as_pointer() == self.as_pointer():
+            compat.update_render_passes(view_layer)
 
 
 def _annotations():
