@@ -66,11 +66,20 @@ def api_counts(scene):
     return {name: values.reshape(height, width) for name, values in hits.per_ray.items()}
 
 
-def render_layer_outputs(scene):
-    """The outputs the compositor's Render Layers node offers: what the View Layer registered."""
+def render_layers_node(scene, view_layer):
     scene.use_nodes = True
     node = next(n for n in scene.node_tree.nodes if n.type == 'R_LAYERS')
+    node.layer = view_layer.name
+    return node
+
+
+def outputs(node):
     return {output.name for output in node.outputs if output.enabled}
+
+
+def render_layer_outputs(scene):
+    """The outputs the compositor's Render Layers node offers: what the first View Layer registered."""
+    return outputs(render_layers_node(scene, scene.view_layers[0]))
 
 
 def test_the_view_layer_registers_the_passes_it_enables(demo_scene):
@@ -80,6 +89,19 @@ def test_the_view_layer_registers_the_passes_it_enables(demo_scene):
     assert render_layer_outputs(demo_scene) & set(raylab.COST_PASSES) == {first, second}
     setattr(demo_scene.view_layers[0].raylab_passes, cost_passes.use_property(first), False)
     assert render_layer_outputs(demo_scene) & set(raylab.COST_PASSES) == {second}
+
+
+def test_each_view_layer_delivers_the_passes_it_enables(demo_scene):
+    first = demo_scene.view_layers[0]
+    second = demo_scene.view_layers.new("Costs")
+    try:
+        node = render_layers_node(demo_scene, second)
+        # A checkbox of the second view layer (not the window's) changes that layer's passes alone.
+        setattr(second.raylab_passes, cost_passes.use_property(raylab.COST_PASSES[0]), True)
+        assert raylab.COST_PASSES[0] in outputs(node)
+        assert raylab.COST_PASSES[0] not in outputs(render_layers_node(demo_scene, first))
+    finally:
+        demo_scene.view_layers.remove(second)
 
 
 def test_a_render_without_cost_passes_writes_none(demo_scene):
