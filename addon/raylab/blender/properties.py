@@ -13,6 +13,12 @@ from .. import api
 from . import draw
 
 
+def work_counter_items():
+    """The counters a structure's traversal counts per ray (box tests, triangle tests, nodes visited)."""
+    return [(name, info["label"], info["description"]) for name, info in api.COUNTER_INFO.items()
+            if info["object_work"]]
+
+
 def structure_items(drawable_only=False):
     """EnumProperty items from the core's table of structure kinds (api.STRUCTURE_INFO)."""
     return [(name, info["label"], info["description"]) for name, info in api.STRUCTURE_INFO.items()
@@ -130,6 +136,18 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     spin: BoolProperty(name="Spin", default=False, update=_spin_changed,
                        description="Rotate the shown mesh objects about Z on every frame change and "
                                    "on a timer, to watch the boxes follow")
+
+    # Cost heat map (cost_overlay.py)
+    cost_enabled: BoolProperty(name="Cost heat map", default=False, update=_redraw,
+                               description="Colour the 3D view by what a ray from each spot of it costs the "
+                                           "structure (traced at low resolution as the view moves)")
+    cost_counter: EnumProperty(name="Count", items=work_counter_items(), default="triangle_tests", update=_redraw,
+                               description="The work per ray the heat map shows")
+    cost_maximum: IntProperty(name="Scale maximum", min=1, soft_max=1000, default=64, update=_redraw,
+                              description="The count drawn in the hottest colour: a fixed scale, so that the "
+                                          "same colour means the same count for every structure")
+    cost_cells: IntProperty(name="Cells across", min=8, max=320, default=96, update=_redraw,
+                            description="Columns of the heat map's grid (square cells): one ray each")
 
     # Ray probe
     probe_enabled: BoolProperty(name="Ray probe", default=False, update=_redraw,

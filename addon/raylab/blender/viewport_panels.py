@@ -1,4 +1,4 @@
-"""The 3D viewport sidebar tab "raylab": Structure, Probe and Last render panels."""
+"""The 3D viewport sidebar tab "raylab": Structure, Probe, Cost heat map and Last render panels."""
 import bpy
 
 from . import probe, properties, render_stats, structure_cache
@@ -90,6 +90,23 @@ class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
                     box.label(text=part)
 
 
+class RAYLAB_PT_cost(_RaylabPanel, bpy.types.Panel):
+    bl_label = "Cost heat map"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.raylab, "cost_enabled", text="")
+
+    def draw(self, context):
+        settings = context.scene.raylab
+        layout = self.layout
+        layout.use_property_split = True
+        layout.active = settings.cost_enabled
+        layout.prop(settings, "cost_counter")
+        layout.prop(settings, "cost_maximum")
+        layout.prop(settings, "cost_cells")
+
+
 class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
     bl_label = "Last render"
 
@@ -97,7 +114,7 @@ class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
         render_stats.draw_last(self.layout, context.scene)
 
 
-CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_last_render)
+CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_cost, RAYLAB_PT_last_render)
 
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

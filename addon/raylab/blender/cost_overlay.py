@@ -1,0 +1,172 @@
+"""The viewport cost overlay: a low-resolution heat map over the 3D view of what each ray from the view
+costs the current structure (box tests, triangle tests or nodes visited), with its legend.
+
+The rays go through the centres of a grid of cells over the view (as many across as the setting asks,
+square cells), from the view's near plane, on the scene model's raylab.Scene (structure_cache): the
+structures the overlay draws and the probe traces. They are traced again only when the view, the region,
+the scene model or the settings change, so orbiting traces a few thousand rays per redraw.
+"""
+import bpy
+import numpy as np
+
+from .. import api
+from . import draw, structure_cache
+
+LEGEND_STEPS = 32       # colour steps of the legend's bar
+LEGEND_SIZE = (160, 12)  # the bar, in pixels
+LEGEND_ORIGIN = (16, 40)  # its bottom-left corner in the region, clear of Blender's own corner text
+CELL_ALPHA = 0.65       # a cell with no work is not drawn; the others let the shading show through
+
+
+def grid_size(width, height, cells_across):
+    """(columns, rows) of square cells over a width × height region."""
+    columns = max(1, min(int(cells_across), int(width)))
+    return columns, max(1, round(columns * height / max(width, 1)))
+
+
+def view_rays(perspective_matrix, columns, rows):
+    """World rays ((N,3) origins on the near plane, (N,3) unit directions; float32) through the centres of
+    columns × rows cells of a view whose perspective_matrix (4,4) is projection @ view; row 0 at the
+    bottom, as Blender's region pixels count. Perspective and orthographic views alike."""
+    x = (np.arange(columns) + 0.5) / columns * 2.0 - 1.0
+    y = (np.arange(rows) + 0.5) / rows * 2.0 - 1.0
+    grid_x, grid_y = np.meshgrid(x, y)
+    inverse = np.linalg.inv(np.asarray(perspective_matrix, dtype=np.float64))
+
+    def unproject(depth):
+        points = np.stack([grid_x.ravel(), grid_y.ravel(), np.full(grid_x.size, depth), np.ones(grid_x.size)])
+        world = inverse @ points
+        return (world[:3] / world[3]).T
+
+    near, far = unproject(-1.0), unproject(1.0)
+    directions = far - near
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    return near.astype(np.float32), directions.astype(np.float32)
+
+
+class CostGrid:
+    """One traced grid: the counts (rows, columns) of the chosen counter, and what they were traced for."""
+
+    __slots__ = ("key", "counts", "columns", "rows", "batch")
+
+    def __init__(self, key, counts):
+        self.key = key
+        self.counts = counts
+        self.rows, self.columns = counts.shape
+        self.batch = None
+
+
+_grids = {}  # (scene name, region pointer) -> CostGrid
+
+
+def cost_grid(scene, perspective_matrix, width, height, depsgraph=None, region_key=None):
+    """The CostGrid of the scene's settings for a view (perspective_matrix, region width × height),
+    traced again only if anything it depends on changed; None when no mesh is shown."""
+    settings = scene.raylab
+    model = structure_cache.scene_model(scene, depsgraph)
+    if not model.committed or not model.instances:
+        return None
+    columns, rows = grid_size(width, height, settings.cost_cells)
+    matrix = np.asarray(perspective_matrix, dtype=np.float64)
+    key = (matrix.tobytes(), columns, rows, settings.cost_counter, id(model), model.generation)
+    grid = _grids.get((scene.name_full, region_key))
+    if grid is not None and grid.key == key:
+        return grid
+    origins, directions = view_rays(matrix, columns, rows)
+    hits = model.scene.intersect(origins, directions, per_ray=True)
+    grid = CostGrid(key, hits.per_ray[settings.cost_counter].reshape(rows, columns))
+    _grids[(scene.name_full, region_key)] = grid
+    return grid
+
+
+def quads(x0, y0, x1, y1):
+    """Q axis-aligned rectangles in region pixels: positions (4Q,2) float32, triangle indices (2Q,3) uint32."""
+    positions = np.stack([np.stack([x0, y0], 1), np.stack([x1, y0], 1), np.stack([x1, y1], 1),
+                          np.stack([x0, y1], 1)], 1).reshape(-1, 2).astype(np.float32)
+    base = 4 * np.arange(len(x0), dtype=np.uint32)[:, None, None]
+    indices = (base + np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)[None]).reshape(-1, 3)
+    return positions, np.ascontiguousarray(indices, dtype=np.uint32)
+
+
+def cell_quads(counts, width, height, maximum):
+    """The cells that did any work as region-pixel quads: positions (4Q,2), colours (4Q,4) on the fixed
+    scale [0, maximum], triangle indices (2Q,3)."""
+    rows, columns = counts.shape
+    row, column = np.nonzero(counts > 0)
+    positions, indices = quads(column * width / columns, row * height / rows,
+                               (column + 1) * width / columns, (row + 1) * height / rows)
+    rgba = api.heat_map(counts[row, column].astype(np.float32), maximum).reshape(-1, 4)
+    rgba[:, 3] = CELL_ALPHA
+    return positions, np.repeat(rgba, 4, axis=0).astype(np.float32), indices
+
+
+# --- drawing (GUI only) ----------------------------------------------------------------------------
+
+def _draw_legend(settings, grid):
+    import blf
+    import gpu
+    width, height = LEGEND_SIZE
+    x, y = LEGEND_ORIGIN
+    values = (np.arange(LEGEND_STEPS, dtype=np.float32) + 0.5) / LEGEND_STEPS * settings.cost_maximum
+    colors = api.heat_map(values, settings.cost_maximum).reshape(-1, 4)
+    step = width / LEGEND_STEPS
+    x0 = x + step * np.arange(LEGEND_STEPS)
+    positions, indices = quads(x0, np.full_like(x0, y), x0 + step, np.full_like(x0, y + height))
+    batch = draw.make_batch('TRIS', positions, np.repeat(colors, 4, axis=0).astype(np.float32), indices)
+    gpu.state.blend_set('ALPHA')
+    batch.draw(gpu.shader.from_builtin(draw.THIN))
+    gpu.state.blend_set('NONE')
+    font = 0
+    blf.size(font, 12)
+    blf.color(font, 1.0, 1.0, 1.0, 1.0)
+    label = api.COUNTER_INFO[settings.cost_counter]["label"]
+    hardest = int(grid.counts.max()) if grid is not None else 0
+    blf.position(font, x, y + height + 6, 0)
+    blf.draw(font, f"{label} per ray ({settings.structure}); hardest here {hardest}")
+    for value, text in api.heat_ticks(settings.cost_maximum):
+        fraction = value / settings.cost_maximum
+        blf.position(font, x + fraction * width - (6 if fraction else 0), y - 16, 0)
+        blf.draw(font, text)
+
+
+def _draw_cost():
+    context = bpy.context
+    scene = context.scene
+    settings = scene.raylab
+    region, rv3d = context.region, context.region_data
+    if not settings.cost_enabled or region is None or rv3d is None:
+        return
+    grid = cost_grid(scene, rv3d.perspective_matrix, region.width, region.height,
+                     context.evaluated_depsgraph_get(), region.as_pointer())
+    if grid is not None:
+        if grid.batch is None or grid.batch[0] != (settings.cost_maximum, region.width, region.height):
+            positions, colors, indices = cell_quads(grid.counts, region.width, region.height, settings.cost_maximum)
+            grid.batch = ((settings.cost_maximum, region.width, region.height),
+                          draw.make_batch('TRIS', positions, colors, indices) if len(indices) else None)
+        if grid.batch[1] is not None:
+            import gpu
+            gpu.state.blend_set('ALPHA')
+            grid.batch[1].draw(gpu.shader.from_builtin(draw.THIN))
+            gpu.state.blend_set('NONE')
+    _draw_legend(settings, grid)
+
+
+@bpy.app.handlers.persistent
+def _on_load(_):
+    _grids.clear()
+
+
+_handles = []
+
+
+def register():
+    _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_cost, (), 'WINDOW', 'POST_PIXEL'))
+    bpy.app.handlers.load_post.append(_on_load)
+
+
+def unregister():
+    for handle in _handles:
+        bpy.types.SpaceView3D.draw_handler_remove(handle, 'WINDOW')
+    _handles.clear()
+    bpy.app.handlers.load_post.remove(_on_load)
+    _grids.clear()
