@@ -4,10 +4,12 @@ after it ends. Any operator error, a render that never ends, or Blender failing 
 
 blender SCENE.blend --python render_repeat.py -- REPORT.json RENDERS
 
-A diagnostic for the F12 lock-up (issue 12), not yet a test: Blender's "may Python write blend data" flag
-can stay off after a render, and then every bpy.ops call fails with "can't modify blend data in this
-state (drawing/rendering)". It did within 4 to 25 renders when the render thread wrote the scene's ID
-property; since it hands its record to a main-thread timer, 3 runs of 50 were clean and one locked at 36.
+The F12 lock-up (issue 12): Blender's one "may Python write blend data" flag, saved and restored by every
+Python class method call on any thread, stayed off after a render whose job thread entered render()
+while the main thread was inside a Python draw; then every bpy.ops call fails with "can't modify blend
+data in this state (drawing/rendering)". RAYLAB_SLOW_DRAW_MS=N adds N ms of pure-Python work to three
+headers that redraw during a render, which makes that race likely: at 30 ms it locked Blender at the
+2nd render before render_engine's guard, and never in 50 renders after it.
 """
 import json
 import os
@@ -111,7 +113,26 @@ def retry():
     return None
 
 
+SLOW_DRAW_MS = float(os.environ.get("RAYLAB_SLOW_DRAW_MS", "0"))
+
+
+def slow_draw(self, context):
+    """A header that draws in pure Python for SLOW_DRAW_MS: Python may switch threads inside it."""
+    end = time.perf_counter() + SLOW_DRAW_MS / 1000.0
+    while time.perf_counter() < end:
+        pass
+
+
+def note_render_pre(*args):
+    import threading
+    report.setdefault("render_pre_threads", []).append(threading.current_thread() is threading.main_thread())
+
+
 raylab.register()
+bpy.app.handlers.render_pre.append(note_render_pre)
+if SLOW_DRAW_MS:
+    for header in (bpy.types.STATUSBAR_HT_header, bpy.types.IMAGE_HT_header, bpy.types.VIEW3D_HT_header):
+        header.append(slow_draw)
 bpy.context.preferences.view.render_display_type = 'WINDOW'
 bpy.context.scene.render.resolution_percentage = 25
 bpy.app.timers.register(start_render, first_interval=1.0)

@@ -236,6 +236,14 @@ def status_text(scene):
     return probe_result(scene).text
 
 
+def last_status_text(scene):
+    """The status lines of the probe's last trace, without tracing: what the sidebar panel shows. A
+    panel's draw must never let go of Python's interpreter lock, which tracing does (render_engine's
+    note on F12 says why); the viewport's draw traces and asks the panel to redraw when it changed."""
+    cached = _results.get(scene.name_full)
+    return cached.text if cached is not None else ["The probe is traced when the 3D view draws"]
+
+
 # --- drawing (GUI only) ----------------------------------------------------------------------------
 
 def _draw_view():
@@ -244,7 +252,10 @@ def _draw_view():
     settings = scene.raylab
     if not settings.probe_enabled:
         return
+    before = _results.get(scene.name_full)
     result = probe_result(scene, context.evaluated_depsgraph_get())
+    if result is not before:
+        draw.tag_redraw(context)  # the sidebar shows last_status_text
     xray = settings.xray
     if result.fan is not None:
         origins, ends, statuses, lines = result.fan

@@ -1,4 +1,5 @@
 """The raylab render engine (F12 with Render Engine: raylab) and its Render Properties panels."""
+import sys
 import threading
 
 import bpy
@@ -34,12 +35,46 @@ def _store_last_render(scene_name, record):
 
 
 def _flush_last_renders():
+    if _saved_switch_interval and not bpy.app.is_job_running('RENDER'):
+        _release_render_guard()  # a render that ended without render_post or render_cancel
     while _pending_records:
         name, record = _pending_records.popitem()
         scene = bpy.data.scenes.get(name)
         if scene is not None:
             scene[render_stats.LAST_RENDER] = record
     return 0.25
+
+
+# F12 calls render() on a job thread. Blender (3.4 to 4.3 at least) keeps "may Python write blend data"
+# in one global flag, which each call into a Python class method saves, sets and restores. If the job
+# thread enters render() while the main thread is half-way through drawing a panel or header in Python
+# (the flag then says "no writes"), render() saves "no writes" and puts it back when it returns, after
+# the main thread has restored "writes": from then on every bpy.ops call fails with "can't modify blend
+# data in this state (drawing/rendering)" and Blender cannot quit. Python lets a waiting thread take
+# the interpreter from a running one after sys.getswitchinterval() (5 ms), so any draw longer than that
+# can be interrupted there. From render_pre (on the job thread, before render() is called) until the
+# render ends, a waiting thread therefore has to wait this long instead: the main thread finishes the
+# draw it is in, and render() finds the flag as it should be. (A forced race, tests/gui/render_repeat.py
+# with 30 ms header draws, locked Blender at the 2nd render before this guard and never after.)
+_SWITCH_INTERVAL_WHILE_RENDERING = 1.0
+_saved_switch_interval = []  # the interval to restore, while a render holds the guard
+
+
+def _guard_render_start(scene, *_args):
+    if (threading.current_thread() is threading.main_thread() or scene is None
+            or scene.render.engine != RaylabRenderEngine.bl_idname or _saved_switch_interval):
+        return
+    _saved_switch_interval.append(sys.getswitchinterval())
+    sys.setswitchinterval(_SWITCH_INTERVAL_WHILE_RENDERING)
+
+
+def _release_render_guard(*_args):
+    if _saved_switch_interval:
+        sys.setswitchinterval(_saved_switch_interval.pop())
+
+
+_GUARD_HANDLERS = (("render_pre", _guard_render_start), ("render_post", _release_render_guard),
+                   ("render_cancel", _release_render_guard))
 
 
 class RaylabRenderEngine(bpy.types.RenderEngine):
@@ -150,12 +185,19 @@ def register():
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.add('RAYLAB')
     bpy.app.timers.register(_flush_last_renders, persistent=True)
+    for name, handler in _GUARD_HANDLERS:
+        getattr(bpy.app.handlers, name).append(bpy.app.handlers.persistent(handler))
 
 
 def unregister():
     if bpy.app.timers.is_registered(_flush_last_renders):
         bpy.app.timers.unregister(_flush_last_renders)
     _pending_records.clear()
+    for name, handler in _GUARD_HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if handler in handlers:
+            handlers.remove(handler)
+    _release_render_guard()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.discard('RAYLAB')
     for cls in reversed(CLASSES):

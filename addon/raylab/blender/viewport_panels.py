@@ -85,7 +85,7 @@ class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
         sub.prop(settings, "fan_size", text="N")
         if settings.probe_enabled:
             box = layout.box()
-            for line in probe.status_text(context.scene):
+            for line in probe.last_status_text(context.scene):
                 for part in line.split(", "):  # the sidebar is narrow: one count per row
                     box.label(text=part)
 

@@ -1,0 +1,33 @@
+"""50 F12 renders in a row in a real Blender window (under Xvfb), with bpy.ops usable after each: the F12
+lock-up of issue 12. Headers that spend 30 ms in Python on every redraw make the race behind it likely
+(render_repeat.py says how); without render_engine's guard, Blender locked at the 2nd render."""
+import json
+import os
+import subprocess
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+HERE = os.path.join(ROOT, "tests", "gui")
+OUT = os.path.join(ROOT, "out", "gui")
+RENDERS = 50
+
+
+def test_fifty_f12_renders_leave_operators_usable():
+    os.makedirs(OUT, exist_ok=True)
+    blend = os.path.join(OUT, "render_repeat_scene.blend")
+    report_path = os.path.join(OUT, "render_repeat.json")
+    for path in (blend, report_path):
+        if os.path.exists(path):
+            os.remove(path)
+    subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1",
+                    "--python", os.path.join(HERE, "save_demo_blend.py"), "--", blend],
+                   check=True, capture_output=True, timeout=120)
+    run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
+                          "--python", os.path.join(HERE, "render_repeat.py"), "--", report_path, str(RENDERS)],
+                         capture_output=True, text=True, timeout=1200, env={**os.environ, "RAYLAB_SLOW_DRAW_MS": "30"})
+    assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:]
+    with open(report_path) as file:
+        report = json.load(file)
+    assert not report["errors"], report["errors"][:3]
+    assert report["finished"] and report["renders_finished"] == RENDERS
+    # poke() ran operators and a property edit while each render ran (at least once) and after it ended
+    assert report["operator_calls"] >= 2 * RENDERS
