@@ -8,6 +8,7 @@
     st = s.story(origin, direction)                  # everything one ray did
     b = s.boxes()                                    # the boxes, for drawing
     sc = raylab.Scene(structure="bvh")               # instances of shared meshes; sc.intersect(...)
+    heat = raylab.heat_map(counts, maximum=100)      # false colour on a fixed scale (see heat.py)
 
 Bad input raises ValueError naming the problem (for an argument: its name and what it accepts); a
 build over the memory budget raises BuildError.
@@ -16,12 +17,14 @@ import math
 import sys
 
 from . import _raylab
+from .heat import HEAT_COLOURS, heat_legend, heat_map, heat_scale_text, heat_ticks  # noqa: F401 (numpy only)
 
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
     "COST_PASSES", "COST_PASS_INFO", "COST_RAYS", "COST_RAYS_INFO",
     "DEFAULTS", "RAY_STATUSES", "BuildError", "load_mesh", "build", "build_file",
     "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "image_size", "write_image",
+    "HEAT_COLOURS", "heat_map", "heat_legend", "heat_ticks", "heat_scale_text",
 ]
 
 # The core's vocabularies (native/python/vocabulary.cpp), never listed again in Python.

@@ -259,7 +259,8 @@ struct PyRenderResult {
   py::dict stats;
   py::array_t<int32_t> instance;
   py::array_t<float> distance;
-  py::dict cost;
+  std::vector<TraversalStats> pixel_work;
+  py::object cost;  // made from pixel_work on first read: a render nobody asks for its cost pays no copies
 };
 
 template <class T>
@@ -365,7 +366,7 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   const py::ssize_t h = result.height, w = result.width;
   PyRenderResult out{to_array(result.image, {h, w, 4}), result.cancelled, stats_dict(result.stats),
                      to_array(result.instance, {h, w}), to_array(result.distance, {h, w}),
-                     cost_dict(result.pixel_work, h, w)};
+                     std::move(result.pixel_work), py::none()};
   if (out.stats["structure"].cast<std::string>().empty() && py::hasattr(scene_object, "structure"))
     out.stats["structure"] = py::str(scene_object.attr("structure"));
   return out;
@@ -380,9 +381,14 @@ void bind_render(py::module_& m) {
       .def_readonly("stats", &PyRenderResult::stats)
       .def_readonly("instance", &PyRenderResult::instance, "(H, W) int32 instance of the pixel-centre ray, -1 on miss")
       .def_readonly("distance", &PyRenderResult::distance, "(H, W) float32 distance of that hit, inf on miss")
-      .def_readonly("cost", &PyRenderResult::cost,
-                    "Each pixel's traversal work: every COUNTERS name -> (H, W) float32, row 0 the top row, "
-                    "summed over the rays settings['cost_rays'] names (all, or primary) of all its samples")
+      .def_property_readonly(
+          "cost",
+          [](PyRenderResult& r) {
+            if (r.cost.is_none()) r.cost = cost_dict(r.pixel_work, r.image.shape(0), r.image.shape(1));
+            return r.cost;
+          },
+          "Each pixel's traversal work: every COUNTERS name -> (H, W) float32, row 0 the top row, "
+          "summed over the rays settings['cost_rays'] names (all, or primary) of all its samples")
       .def("__repr__", [](const PyRenderResult& r) {
         return "<raylab.RenderResult " + std::to_string(r.image.shape(1)) + "x" + std::to_string(r.image.shape(0)) +
                (r.cancelled ? " cancelled>" : ">");

@@ -32,6 +32,7 @@ def raylab_operators():
 
 def raylab_property_groups():
     groups = [bpy.types.Scene.bl_rna.properties[a].fixed_type for a in properties.GROUPS]
+    groups.append(bpy.types.ViewLayer.bl_rna.properties["raylab_passes"].fixed_type)  # cost_passes.py
     return groups + [preferences.RAYLAB_AP_preferences.bl_rna] + list(raylab_operators().values())
 
 

@@ -1,6 +1,7 @@
 """raylab's cost passes inside Blender: the View Layer's checkboxes register the passes (the compositor
 and the pass menu see them), an F12 render writes them into a multilayer EXR, and their values are the
-API's own counts of the same rays."""
+API's own counts of the same rays; the heat pass is those counts in raylab.heat_map's colours on the
+stated scale, with its legend."""
 import os
 import tempfile
 
@@ -26,6 +27,7 @@ def demo_scene():
     for name in raylab.COST_PASSES:
         setattr(passes, cost_passes.use_property(name), False)
     passes.cost_rays = "all"
+    passes.use_heat = False
     return scene
 
 
@@ -64,11 +66,20 @@ def api_counts(scene):
     return {name: values.reshape(height, width) for name, values in hits.per_ray.items()}
 
 
-def render_layer_outputs(scene):
-    """The outputs the compositor's Render Layers node offers: what the View Layer registered."""
+def render_layers_node(scene, view_layer):
     scene.use_nodes = True
     node = next(n for n in scene.node_tree.nodes if n.type == 'R_LAYERS')
+    node.layer = view_layer.name
+    return node
+
+
+def outputs(node):
     return {output.name for output in node.outputs if output.enabled}
+
+
+def render_layer_outputs(scene):
+    """The outputs the compositor's Render Layers node offers: what the first View Layer registered."""
+    return outputs(render_layers_node(scene, scene.view_layers[0]))
 
 
 def test_the_view_layer_registers_the_passes_it_enables(demo_scene):
@@ -78,6 +89,19 @@ def test_the_view_layer_registers_the_passes_it_enables(demo_scene):
     assert render_layer_outputs(demo_scene) & set(raylab.COST_PASSES) == {first, second}
     setattr(demo_scene.view_layers[0].raylab_passes, cost_passes.use_property(first), False)
     assert render_layer_outputs(demo_scene) & set(raylab.COST_PASSES) == {second}
+
+
+def test_each_view_layer_delivers_the_passes_it_enables(demo_scene):
+    first = demo_scene.view_layers[0]
+    second = demo_scene.view_layers.new("Costs")
+    try:
+        node = render_layers_node(demo_scene, second)
+        # A checkbox of the second view layer (not the window's) changes that layer's passes alone.
+        setattr(second.raylab_passes, cost_passes.use_property(raylab.COST_PASSES[0]), True)
+        assert raylab.COST_PASSES[0] in outputs(node)
+        assert raylab.COST_PASSES[0] not in outputs(render_layers_node(demo_scene, first))
+    finally:
+        demo_scene.view_layers.remove(second)
 
 
 def test_a_render_without_cost_passes_writes_none(demo_scene):
@@ -108,3 +132,42 @@ def test_all_ray_passes_add_up_to_the_renders_totals(demo_scene):
     for name, info in raylab.COST_PASS_INFO.items():
         total = channels[channel(demo_scene, name)].sum(dtype=np.float64)
         assert total == record[info["counter"]], name
+
+
+def heat_channels(scene, channels):
+    """The heat pass from the EXR as (H, W, 4), row 0 the top."""
+    layer = scene.view_layers[0].name
+    return np.stack([channels[f"{layer}.{cost_passes.HEAT_PASS}.{c}"] for c in "RGBA"], axis=-1)
+
+
+def enable_heat(scene, pass_name, maximum, legend):
+    passes = scene.view_layers[0].raylab_passes
+    passes.use_heat = True
+    passes.heat_pass = pass_name
+    passes.heat_maximum = maximum
+    passes.heat_legend = legend
+    passes.cost_rays = "primary"
+
+
+@pytest.mark.parametrize("structure", ["none", "bvh"])
+def test_the_heat_pass_is_the_counts_in_false_colour_on_the_stated_scale(demo_scene, structure):
+    demo_scene.raylab_render.structure = structure
+    triangles = next(name for name, info in raylab.COST_PASS_INFO.items() if info["counter"] == "triangle_tests")
+    enable_heat(demo_scene, triangles, 500.0, legend=True)  # 60 x 45: too small for the legend
+    assert cost_passes.HEAT_PASS in render_layer_outputs(demo_scene)
+    heat = heat_channels(demo_scene, render_exr(demo_scene))
+    expected = raylab.heat_map(api_counts(demo_scene)["triangle_tests"], 500.0)
+    assert np.array_equal(heat, expected)
+    scale = raylab.heat_scale_text("Triangle tests", 500.0)
+    assert demo_scene["raylab_last_render"]["heat_scale"] == scale
+
+
+def test_the_heat_pass_carries_its_legend_in_its_bottom_rows(demo_scene):
+    demo_scene.render.resolution_x, demo_scene.render.resolution_y = 160, 120
+    nodes = next(name for name, info in raylab.COST_PASS_INFO.items() if info["counter"] == "nodes_visited")
+    enable_heat(demo_scene, nodes, 40.0, legend=True)
+    heat = heat_channels(demo_scene, render_exr(demo_scene))
+    legend = raylab.heat_legend(40.0, width=160)
+    expected = raylab.heat_map(api_counts(demo_scene)["nodes_visited"], 40.0)
+    assert np.array_equal(heat[-len(legend):], legend)
+    assert np.array_equal(heat[:-len(legend)], expected[:-len(legend)])

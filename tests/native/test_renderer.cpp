@@ -339,6 +339,41 @@ TEST(Renderer, SuperSamplingCountsNxNPrimaryRaysAndCancelStopsWork) {
   EXPECT_EQ(r.stats.rays_primary, 0u);
 }
 
+TEST(Renderer, EachPixelsWorkAddsUpToTheTotalsAndPrimaryCountsTheCameraRaysAlone) {
+  FloorScene f;
+  f.add_occluder();
+  f.materials[0].reflectivity = 0.5f;  // reflection rays too
+  f.settings.super_sampling = 2;
+  const RenderResult all = f.run();
+  ASSERT_EQ(all.pixel_work.size(), 32u * 32u);
+  TraversalStats sum;
+  for (const TraversalStats& w : all.pixel_work) sum += w;
+  for (const CounterInfo& c : kCounters) EXPECT_EQ(sum.*c.field, all.stats.traversal.*c.field) << c.name;
+  EXPECT_GT(all.stats.rays_reflection, 0u);
+  EXPECT_EQ(all.pixel_work[1 * 32 + 1].rays, 4u);  // the background: its four camera rays alone
+  // A floor pixel: four camera rays, four shadow rays and four reflection rays (which miss).
+  EXPECT_EQ(all.pixel_work[16 * 32 + 8].rays, 12u);
+
+  f.settings.cost_rays = CostRays::Primary;
+  const RenderResult primary = f.run();
+  EXPECT_EQ(primary.image, all.image);
+  EXPECT_EQ(primary.stats.traversal.rays, all.stats.traversal.rays);  // the totals still count every ray
+  for (size_t i = 0; i < primary.pixel_work.size(); ++i) {
+    EXPECT_EQ(primary.pixel_work[i].rays, 4u);
+    // Each pixel's camera rays, traced again on their own, did exactly this work.
+    const int x = int(i % 32), y = int(i / 32);
+    const Camera camera(f.camera);
+    TraversalStats own;
+    for (int j = 0; j < 2; ++j)
+      for (int k = 0; k < 2; ++k) {
+        Hit hit;
+        f.scene.closest(camera.ray(float(x) + (float(k) + 0.5f) / 2.0f, float(y) + (float(j) + 0.5f) / 2.0f), hit,
+                        &own);
+      }
+    for (const CounterInfo& c : kCounters) ASSERT_EQ(primary.pixel_work[i].*c.field, own.*c.field) << c.name << " " << i;
+  }
+}
+
 TEST(Renderer, MaterialIndexOutOfRangeThrows) {
   FloorScene f;
   f.materials.clear();

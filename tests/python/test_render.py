@@ -196,6 +196,18 @@ def test_write_image_png_and_exr(tmp_path, result):
         raylab.write_image(tmp_path / "no_such_dir" / "x.png", result.image)
 
 
+def test_read_channels_gives_back_the_exr_write_image_wrote(tmp_path, result):
+    from raylab import _raylab_images
+    path = tmp_path / "render.exr"
+    raylab.write_image(path, result.image)
+    channels = _raylab_images.read_channels(path)
+    assert list(channels) == ["R", "G", "B", "A"]
+    for c, name in enumerate("RGBA"):
+        assert channels[name].shape == (H, W) and np.array_equal(channels[name], result.image[..., c]), name
+    with pytest.raises(RuntimeError, match="missing.exr"):
+        _raylab_images.read_channels(tmp_path / "missing.exr")
+
+
 def test_bad_input_raises_value_error_naming_it(scene):
     camera, lights, materials = make_view()
     with pytest.raises(ValueError, match="matrix_world"):

@@ -1,15 +1,18 @@
 """raylab's cost passes in Blender: which ones a View Layer delivers (view_layer.raylab_passes, drawn in
 the View Layer tab), registering them with the render engine the Blender way (update_render_passes), and
-writing a render's per-pixel work into them. The pass list is api.COST_PASS_INFO (declared once in
+writing a render's per-pixel work into them; and the heat pass, one of them in false colour on a fixed,
+stated scale (raylab.heat_map) with its legend. The pass list is api.COST_PASS_INFO (declared once in
 native/include/raylab/cost_passes.h); nothing here lists a pass or a counter again."""
 import bpy
-from bpy.props import BoolProperty, EnumProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, PointerProperty
 
 from .. import api
 from . import compat
 
 # A count per pixel: one float channel, as Blender's Depth pass.
 CHANNELS, CHANNEL_ID, PASS_TYPE = 1, "X", 'VALUE'
+# The false-colour view of one count: a colour pass.
+HEAT_PASS = "raylab Heat"
 
 
 def use_property(pass_name):
@@ -18,10 +21,12 @@ def use_property(pass_name):
 
 
 def _passes_changed(self, context):
-    # The pass menu, the compositor's Render Layers node and the EXR follow the checkboxes at once.
-    view_layer = getattr(context, "view_layer", None)
-    if view_layer is not None:
-        compat.update_render_passes(view_layer)
+    # The pass menu and the compositor's Render Layers node follow the checkboxes at once. The view
+    # layer is the one holding these settings (self.id_data is its scene), not the window's; a ViewLayer
+    # has no path from its scene to resolve, so it is found by its settings' address.
+    for view_layer in self.id_data.view_layers:
+        if view_layer.raylab_passes.as_pointer() == self.as_pointer():
+            compat.update_render_passes(view_layer)
 
 
 def _annotations():
@@ -33,6 +38,22 @@ def _annotations():
         name="Count", default=api.COST_RAYS[0], update=_passes_changed,
         items=[(name, info["label"], info["description"]) for name, info in api.COST_RAYS_INFO.items()],
         description="Which of a pixel's rays the cost passes count")
+    fields["use_heat"] = BoolProperty(
+        name="Heat", default=False, update=_passes_changed,
+        description=f"Deliver the \"{HEAT_PASS}\" pass: one count per pixel in false colour (inferno) on the "
+                    "fixed scale 0 to Heat Maximum, with its legend")
+    fields["heat_pass"] = EnumProperty(
+        name="Heat Of", default=api.COST_PASSES[0],
+        items=[(name, info["label"], info["description"]) for name, info in api.COST_PASS_INFO.items()],
+        description="The count the heat pass shows")
+    fields["heat_maximum"] = FloatProperty(
+        name="Heat Maximum", default=100.0, min=1e-3, soft_max=1e6,
+        description="The count shown in the top colour (and anything above it): renders on the same maximum "
+                    "compare colour for colour, whatever their structure")
+    fields["heat_legend"] = BoolProperty(
+        name="Legend in Image", default=True,
+        description="Draw the colour bar with its numbers (0, the middle, the maximum) over the heat pass's "
+                    "bottom rows, when the image is at least 128 x 96 pixels")
     return fields
 
 
@@ -48,10 +69,31 @@ def enabled(props):
 
 
 def register_passes(engine, scene, view_layer):
-    """RenderEngine.update_render_passes: Combined, then every enabled cost pass."""
+    """RenderEngine.update_render_passes: Combined, then every enabled cost pass, then the heat pass."""
+    props = view_layer.raylab_passes
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
-    for name in enabled(view_layer.raylab_passes):
+    for name in enabled(props):
         engine.register_pass(scene, view_layer, name, CHANNELS, CHANNEL_ID, PASS_TYPE)
+    if props.use_heat:
+        engine.register_pass(scene, view_layer, HEAT_PASS, 4, "RGBA", 'COLOR')
+
+
+def heat_scale(props):
+    """The heat pass's scale in words (the stats line, the Last Render panel), or None without one."""
+    if not props.use_heat:
+        return None
+    return api.heat_scale_text(api.COST_PASS_INFO[props.heat_pass]["label"], props.heat_maximum)
+
+
+def heat_image(cost, props):
+    """The heat pass of one render: (H, W, 4) linear RGBA, row 0 the top, the legend over the bottom
+    rows when asked and the image is large enough to keep the picture readable above it."""
+    image = api.heat_map(cost[api.COST_PASS_INFO[props.heat_pass]["counter"]], props.heat_maximum)
+    height, width = image.shape[:2]
+    if props.heat_legend and width >= 128 and height >= 96:
+        legend = api.heat_legend(props.heat_maximum, width=width)
+        image[height - len(legend):] = legend
+    return image
 
 
 def write_passes(render_layer, result, props):
@@ -60,6 +102,8 @@ def write_passes(render_layer, result, props):
     for name in enabled(props):
         cost = result.cost[api.COST_PASS_INFO[name]["counter"]]
         compat.set_pass_pixels(render_layer.passes[name], cost[::-1])
+    if props.use_heat:
+        compat.set_pass_pixels(render_layer.passes[HEAT_PASS], heat_image(result.cost, props)[::-1])
 
 
 class RAYLAB_PT_view_layer_passes(bpy.types.Panel):
@@ -82,6 +126,17 @@ class RAYLAB_PT_view_layer_passes(bpy.types.Panel):
         for name in api.COST_PASSES:
             column.prop(props, use_property(name))
         layout.prop(props, "cost_rays")
+        layout.separator()
+        layout.prop(props, "use_heat")
+        heat = layout.column()
+        heat.active = props.use_heat
+        heat.prop(props, "heat_pass")
+        heat.prop(props, "heat_maximum")
+        heat.prop(props, "heat_legend")
+        # The scale stated in words: the same maximum in two renders, the same colour, the same count.
+        heat.label(text=api.heat_scale_text(api.COST_PASS_INFO[props.heat_pass]["label"], props.heat_maximum),
+                   icon='INFO')
+
 
 CLASSES = (RAYLAB_PG_passes, RAYLAB_PT_view_layer_passes)
 

@@ -103,8 +103,13 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         if result.cancelled:
             self.update_stats("", f"raylab {props.structure}: cancelled")
             return
-        _store_last_render(scene.original.name_full, render_stats.record(result.stats, props.super_sampling))
+        record = render_stats.record(result.stats, props.super_sampling)
         line = render_stats.line(result.stats)
+        scale = cost_passes.heat_scale(passes)
+        if scale is not None:  # stated with the image, so that two renders compare on one scale
+            record[render_stats.HEAT_SCALE] = scale
+            line += f" | heat: {scale}"
+        _store_last_render(scene.original.name_full, record)
         # The info text is printed by background renders but cleared from the render window when the
         # render ends; the result's message (error_set) is what the window keeps showing after it.
         self.update_stats("", line)

@@ -62,6 +62,7 @@ def line(stats):
 
 
 LAST_RENDER = "raylab_last_render"  # the scene's ID property holding the last F12's record
+HEAT_SCALE = "heat_scale"  # a record's heat pass scale in words, when the render made one
 
 
 def draw_last(layout, scene):
@@ -81,3 +82,5 @@ def draw(layout, record):
         split = column.split(factor=0.5)
         split.label(text=label)
         split.label(text=text)
+    if HEAT_SCALE in record:
+        column.label(text=f"Heat: {record[HEAT_SCALE]}", icon='INFO')
