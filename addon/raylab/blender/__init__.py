@@ -4,7 +4,7 @@ Add your module to MODULES (order matters: properties before what uses them).
 """
 import importlib
 
-MODULES = ["properties", "preferences", "levels", "level_panels", "structure_cache", "overlay", "spin", "probe", "experiments.leak", "viewport_panels", "cost_passes", "render_engine", "compare"]
+MODULES = ["properties", "preferences", "levels", "level_panels", "structure_cache", "overlay", "spin", "probe", "experiments.leak", "viewport_panels", "cost_passes", "render_engine", "compare", "heat_maps"]
 
 
 def _modules():

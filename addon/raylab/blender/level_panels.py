@@ -183,22 +183,14 @@ class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
         if not os.path.isfile(self.path):
             self.report({'ERROR'}, f"raylab: no diagram at {self.path}")
             return {'CANCELLED'}
-        show_image(context, bpy.data.images.load(self.path, check_existing=True))
+        image = bpy.data.images.load(self.path, check_existing=True)
+        # render.view_show opens a new window with an image editor; show the diagram in it instead.
+        bpy.ops.render.view_show('INVOKE_DEFAULT')
+        area = next((a for w in context.window_manager.windows for a in w.screen.areas if a.type == 'IMAGE_EDITOR'),
+                    None)
+        if area is not None:
+            area.spaces.active.image = image
         return {'FINISHED'}
-
-
-def show_image(context, image, sidebar=False):
-    """Shows an Image in an Image Editor: render.view_show's window (a new one, or the render window
-    already open), with its sidebar open when `sidebar`. Needs a window (not in background mode)."""
-    bpy.ops.render.view_show('INVOKE_DEFAULT')
-    area = next((a for w in context.window_manager.windows for a in w.screen.areas if a.type == 'IMAGE_EDITOR'),
-                None)
-    if area is not None:
-        area.spaces.active.image = image
-        if sidebar:
-            area.spaces.active.show_region_ui = True
-        area.tag_redraw()
-    return area
 
 
 # Sub-panels draw in the order they are registered: the tasks right under the goal, where a student sees
