@@ -152,8 +152,8 @@ def new_job(context, time_limit=None):
     limit = preferences.settings(context).compare_time_limit if time_limit is None else time_limit
     job = compare.make_job(dataclasses.replace(exported, camera=camera), context.scene.raylab_render,
                            super_sampling=1, time_limit=limit, cost_rays=COST_RAYS)
-    # The maps count camera rays only: shadow and reflection rays would be traced for nothing (they
-    # doubled the time of brute force's render on the level's scene).
+    # The maps count camera rays only: shadow and reflection rays would be traced for nothing (a shadow
+    # ray per lit pixel and light, each as dear as a camera ray under brute force).
     job.settings.update(shadows=False, max_depth=0)
     job.render_size = api.image_size(exported.camera)  # the probe's pixels, for the record
     return job
