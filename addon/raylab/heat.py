@@ -7,6 +7,13 @@ is the same count, whatever structure made it. numpy only.
     raylab.write_image("heat.png", np.concatenate([heat, legend]))
     raylab.heat_scale_text("Triangle tests", 200)                         # the scale in words
 
+Several structures side by side on one scale (what "Where does the work go?" shows):
+
+    maps = [raylab.heat_map(raylab.render(scene_with(s), camera, lights, materials).cost["triangle_tests"], 200)
+            for s in ("none", "aabb", "octree", "bvh")]
+    strip = np.concatenate(maps, axis=1)
+    picture = np.concatenate([strip, raylab.heat_legend(200, width=strip.shape[1])])
+
 The images are linear RGBA, as render() makes them (write_image and Blender's Standard view transform
 show the colour map as it is meant; Filmic or AgX would bend it).
 """

@@ -78,11 +78,14 @@ def register_passes(engine, scene, view_layer):
         engine.register_pass(scene, view_layer, HEAT_PASS, 4, "RGBA", 'COLOR')
 
 
+def scale_text(props):
+    """The heat settings' scale in words: "Triangle tests per pixel: 0 (black) to 100+ (pale yellow), ..."."""
+    return api.heat_scale_text(api.COST_PASS_INFO[props.heat_pass]["label"], props.heat_maximum)
+
+
 def heat_scale(props):
     """The heat pass's scale in words (the stats line, the Last Render panel), or None without one."""
-    if not props.use_heat:
-        return None
-    return api.heat_scale_text(api.COST_PASS_INFO[props.heat_pass]["label"], props.heat_maximum)
+    return scale_text(props) if props.use_heat else None
 
 
 def heat_image(cost, props):
@@ -101,9 +104,17 @@ def write_passes(render_layer, result, props):
     Blender's buffers start at the bottom row)."""
     for name in enabled(props):
         cost = result.cost[api.COST_PASS_INFO[name]["counter"]]
-        compat.set_pass_pixels(render_layer.passes[name], cost[::-1])
+        _fill(render_layer, name, cost)
     if props.use_heat:
-        compat.set_pass_pixels(render_layer.passes[HEAT_PASS], heat_image(result.cost, props)[::-1])
+        _fill(render_layer, HEAT_PASS, heat_image(result.cost, props))
+
+
+def _fill(render_layer, name, pixels):
+    render_pass = render_layer.passes.get(name)
+    # Blender asked update_render_passes for the result's passes when the render began; one missing is
+    # left out rather than failing the render on its job thread.
+    if render_pass is not None:
+        compat.set_pass_pixels(render_pass, pixels[::-1])
 
 
 class RAYLAB_PT_view_layer_passes(bpy.types.Panel):
@@ -134,8 +145,7 @@ class RAYLAB_PT_view_layer_passes(bpy.types.Panel):
         heat.prop(props, "heat_maximum")
         heat.prop(props, "heat_legend")
         # The scale stated in words: the same maximum in two renders, the same colour, the same count.
-        heat.label(text=api.heat_scale_text(api.COST_PASS_INFO[props.heat_pass]["label"], props.heat_maximum),
-                   icon='INFO')
+        heat.label(text=scale_text(props), icon='INFO')
 
 
 CLASSES = (RAYLAB_PG_passes, RAYLAB_PT_view_layer_passes)

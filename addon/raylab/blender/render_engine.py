@@ -123,11 +123,13 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         height, width = result.image.shape[:2]
         # This view layer's part of the render result: Combined and the cost passes it registered.
         blender_result = self.begin_result(0, 0, width, height, layer=view_layer.name)
-        layer = blender_result.layers[0]
-        # raylab's row 0 is the top of the picture; Blender's buffers start at the bottom row.
-        compat.set_pass_pixels(layer.passes["Combined"], result.image[::-1])
-        cost_passes.write_passes(layer, result, view_layer.raylab_passes)
-        self.end_result(blender_result)
+        try:
+            layer = blender_result.layers[0]
+            # raylab's row 0 is the top of the picture; Blender's buffers start at the bottom row.
+            compat.set_pass_pixels(layer.passes["Combined"], result.image[::-1])
+            cost_passes.write_passes(layer, result, view_layer.raylab_passes)
+        finally:
+            self.end_result(blender_result)  # a result begun is always ended: Blender waits for it
 
 
 class RaylabRenderPanel:

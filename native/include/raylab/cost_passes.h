@@ -31,7 +31,7 @@ struct CostPassInfo {
 };
 
 inline constexpr CostPassInfo kCostPasses[] = {
-    {"raylab Rays", "rays", "Rays per pixel", "Rays the pixel traced (all, or primary only)"},
+    {"raylab Rays", "rays", "Rays", "Rays the pixel traced (all, or primary only)"},
     {"raylab Box Tests", "box_tests", "Box tests", "Ray/box tests of the pixel's rays"},
     {"raylab Triangle Tests", "triangle_tests", "Triangle tests", "Ray/triangle tests of the pixel's rays"},
     {"raylab Nodes Visited", "nodes_visited", "Nodes visited", "Nodes the pixel's rays entered"},
