@@ -517,9 +517,97 @@ def shadow_acne():
     return save(fig, "where_methods_fail", "shadow_acne.png")
 
 
+def bvh_leaves(triangles, leaf_size=2):
+    """The BVH's leaves as ray_status takes them: (lo, hi, triangle ids)."""
+    return [(lo, hi, ids) for lo, hi, _, is_leaf, ids in build_bvh(triangles, leaf_size=leaf_size) if is_leaf]
+
+
+def draw_tested_rays(ax, rays, triangles, leaves):
+    """Each ray (origin, direction, label position) with the number of triangles it tests (computed)."""
+    lo = np.vstack(triangles).min(axis=0)
+    hi = np.vstack(triangles).max(axis=0)
+    for origin, direction, where in rays:
+        status, tested = ray_status(origin, direction, triangles, lo, hi, leaves)
+        t_hit = ray_triangles(origin, direction, triangles)
+        color = RAY if len(tested) > 2 or (tested and status != "hit_object") else BOX  # wasted tests in red
+        draw_ray(ax, origin, direction, 6.0, color=color, stop=t_hit)
+        ax.text(*where, f"{len(tested)} tested" + (", hit" if status == "hit_object" else ", missed"),
+                fontsize=10.5, color=color)
+
+
+def silhouette_work():
+    """Rays through the middle stop at their first hit; rays beside the outline enter leaf after leaf."""
+    tris = fan_triangles(blob((0.0, 0.0), 1.0, 16, 7))
+    leaves = bvh_leaves(tris)
+    fig, (ax,) = new_figure(1, width=6.4, height=4.0)
+    draw_triangles(ax, tris, lw=0.5)
+    for lo, hi, _ in leaves:
+        draw_box(ax, lo, hi, color=DEPTH_COLORS[2], lw=0.8)
+    outline = np.vstack(tris)
+    top = outline[:, 1].max()
+    lo, hi = outline.min(axis=0), outline.max(axis=0)
+
+    def beside(ray):  # rays that miss first, then the most triangles tested
+        status, tested = ray_status(np.array([-2.6, ray[0]]), unit([1, ray[1]]), tris, lo, hi, leaves)
+        return status != "hit_object", len(tested)
+
+    # The ray beside the outline: of the rays that miss, the one that tests the most triangles.
+    y, slope = max(((y, k) for y in np.linspace(0.0, top + 0.6, 60) for k in np.linspace(-0.2, 0.0, 21)), key=beside)
+    rays = [(np.array([-2.6, 0.05]), unit([1, 0.0]), (-2.6, 0.15)),
+            (np.array([-2.6, y]), unit([1, slope]), (-2.6, y + 0.12))]
+    draw_tested_rays(ax, rays, tris, leaves)
+    ax.set_title("the silhouette: a ray just beside the object hits nothing that stops it")
+    frame(ax, np.array([-2.7, -1.1]), np.array([2.7, max(top, y) + 0.35]), pad=0.05)
+    return save(fig, "where_work_goes", "silhouette.png")
+
+
+def grazing_ray():
+    """A ray head-on meets the surface in one leaf; a grazing ray runs along it through many."""
+    xs = np.linspace(-2.0, 2.0, 11)
+    tris = []
+    for a, b in zip(xs[:-1], xs[1:]):  # a bumpy strip of ground, two triangles per step
+        ya, yb = 0.06 * np.sin(3 * a), 0.06 * np.sin(3 * b)
+        tris += [np.array([[a, ya], [b, yb], [a, -0.3]]), np.array([[b, yb], [b, -0.3], [a, -0.3]])]
+    leaves = bvh_leaves(tris)
+    fig, (ax,) = new_figure(1, width=6.4, height=3.4)
+    draw_triangles(ax, tris, lw=0.5)
+    for lo, hi, _ in leaves:
+        draw_box(ax, lo, hi, color=DEPTH_COLORS[2], lw=0.8)
+    ground = np.vstack(tris)
+    # The grazing ray: of the nearly flat rays just above the ground, the one that tests the most.
+    slope = max(np.linspace(-0.06, 0.0, 120), key=lambda k: len(ray_status(
+        np.array([-2.3, 0.1]), unit([1.0, k]), tris, ground.min(axis=0), ground.max(axis=0), leaves)[1]))
+    rays = [(np.array([0.3, 1.3]), unit([0.05, -1.0]), (0.45, 1.1)),
+            (np.array([-2.3, 0.1]), unit([1.0, slope]), (-2.3, 0.25))]
+    draw_tested_rays(ax, rays, tris, leaves)
+    ax.set_title("grazing: a ray along the surface crosses leaf after leaf")
+    frame(ax, np.array([-2.4, -0.4]), np.array([2.2, 1.4]), pad=0.05)
+    return save(fig, "where_work_goes", "grazing.png")
+
+
+def thin_triangle_box():
+    """A long thin diagonal triangle: its box is almost all empty, and every ray through it tests it."""
+    thin = [np.array([[-1.8, -1.2], [1.8, 1.2], [1.75, 1.3]])]
+    fat = fan_triangles(blob((1.0, -0.55), 0.4, 9, 4))
+    tris = thin + fat
+    leaves = [(t.min(axis=0), t.max(axis=0), [i]) for i, t in enumerate(tris)]  # a leaf per triangle
+    fig, (ax,) = new_figure(1, width=6.4, height=4.2)
+    draw_triangles(ax, fat, lw=0.5)
+    draw_triangles(ax, thin, face="#fdd49e", edge="#e6550d", lw=1.2)
+    draw_box(ax, thin[0].min(axis=0), thin[0].max(axis=0), color="#e6550d", lw=1.5, ls="--")
+    along = unit(thin[0][1] - thin[0][0])
+    rays = [(np.array([-2.4, -0.85]), along, (-2.6, -1.05)),   # beside the triangle, all through its box
+            (np.array([2.6, -0.5]), unit([-1, 0.0]), (1.9, -0.4))]
+    draw_tested_rays(ax, rays, tris, leaves)
+    ax.text(-1.7, 0.9, "the thin triangle's box:\nalmost all empty", fontsize=10.5, color="#e6550d")
+    ax.set_title("a long thin triangle: a big box that rays enter and miss")
+    frame(ax, np.array([-2.7, -1.4]), np.array([2.2, 1.45]), pad=0.05)
+    return save(fig, "where_work_goes", "thin_triangles.png")
+
+
 DIAGRAMS = [aabb_bounding_box, aabb_ray_cases, quadtree_depths, vertex_rule_vs_sat, separating_axis,
             octree_ray_statuses, bvh_boxes_and_tree, bvh_traversal, race_work_per_ray, leaking_ray,
-            shadow_acne]
+            shadow_acne, silhouette_work, grazing_ray, thin_triangle_box]
 
 if __name__ == "__main__":
     for draw in DIAGRAMS:

@@ -65,8 +65,8 @@ def same(actual, expected):
 
 
 def test_the_required_levels_exist():
-    assert {"aabb_1", "aabb_2", "octree_1", "octree_2", "bvh_1", "bvh_2", "race", "where_methods_fail",
-            "sandbox"} <= set(LEVEL_IDS)
+    assert {"aabb_1", "aabb_2", "octree_1", "octree_2", "bvh_1", "bvh_2", "race", "where_work_goes",
+            "where_methods_fail", "sandbox"} <= set(LEVEL_IDS)
     found, errors = levels.available_levels()
     assert errors == []
     assert [level.id for level in found][:2] == ["aabb_1", "aabb_2"]
@@ -87,6 +87,15 @@ def test_opening_a_level_builds_its_scene_and_settings(level_id):
     corners = np.array([obj.matrix_world @ Vector(c) for c in obj.bound_box])
     assert (corners.max(axis=0) - corners.min(axis=0)).max() == pytest.approx(
         levels.MESH_SIZE * data.get("scene_scale", 1.0), rel=1e-4)
+    for spec in data.get("objects", []):  # the level's other objects: their mesh, size and place
+        extra = scene.objects[spec["name"]]
+        _, triangles = raylab.load_mesh(os.path.join(levels.MESH_DIR, spec["file"]))
+        assert len(extra.data.polygons) == len(triangles)
+        corners = np.array([Vector(c) for c in extra.bound_box])
+        assert (corners.max(axis=0) - corners.min(axis=0)).max() == pytest.approx(
+            spec.get("size", levels.MESH_SIZE) * data.get("scene_scale", 1.0), rel=1e-4)
+        assert list(extra.location) == pytest.approx(
+            [v * data.get("scene_scale", 1.0) for v in spec.get("location", (0, 0, 0))])
     for group in levels.SETTING_GROUPS:
         for key, value in data.get(group, {}).items():
             actual = getattr(getattr(scene, group), key)

@@ -28,12 +28,12 @@ SAMPLE_TILE_SIZE = 8    # the sample's tiles: small, so that it runs on every co
 POLL_SECONDS = 0.1      # the modal operator's timer
 
 
-def sample_camera(camera):
-    """The camera dict at a resolution of about SAMPLE_PIXELS pixels (same view, same aspect), and the
-    ratio of the full image's pixels to the sample's."""
+def sample_camera(camera, pixels=SAMPLE_PIXELS):
+    """The camera dict at a resolution of about `pixels` pixels (same view, same aspect; never larger
+    than the camera's), and the ratio of the full image's pixels to the sample's."""
     scale = camera["resolution_percentage"] / 100.0
     width, height = camera["resolution_x"] * scale, camera["resolution_y"] * scale
-    shrink = max(1.0, math.sqrt(width * height / SAMPLE_PIXELS))
+    shrink = max(1.0, math.sqrt(width * height / pixels))
     small_width, small_height = max(1, round(width / shrink)), max(1, round(height / shrink))
     sample = dict(camera, resolution_x=small_width, resolution_y=small_height, resolution_percentage=100)
     return sample, (round(width) * round(height)) / (small_width * small_height)
@@ -44,6 +44,7 @@ class StructureResult:
     structure: str
     stats: dict = None      # the render's stats; None when skipped
     image: object = None    # the render's (H, W, 4) float32 image; None when skipped
+    cost: dict = None       # the render's per-pixel counters (COUNTERS -> (H, W) float32); None when skipped
     estimate: float = None  # seconds the sample predicted (None: no time limit, no estimate)
     note: str = ""          # why it was skipped
 
@@ -120,7 +121,7 @@ class CompareJob:
                             self.settings, progress=progress)
         if not result.cancelled:
             self.results.append(StructureResult(structure, stats=result.stats, image=result.image,
-                                                estimate=estimate))
+                                                cost=result.cost, estimate=estimate))
 
     def _estimate(self, scene):
         """Seconds the full render would take, from a render of about SAMPLE_PIXELS of its pixels;
@@ -138,9 +139,11 @@ class CompareJob:
         scene[SKIPPED] = {r.structure: r.note for r in self.results if r.stats is None}
 
 
-def make_job(exported, props, super_sampling=None, structures=api.STRUCTURES, time_limit=0.0):
-    """The job for an export with the settings of scene.raylab_render (read now, on the main thread)."""
-    return CompareJob(exported, render_settings(exported, props, super_sampling),
+def make_job(exported, props, super_sampling=None, structures=api.STRUCTURES, time_limit=0.0,
+             cost_rays=api.COST_RAYS[0]):
+    """The job for an export with the settings of scene.raylab_render (read now, on the main thread);
+    cost_rays: which rays the results' per-pixel cost counts (api.COST_RAYS)."""
+    return CompareJob(exported, render_settings(exported, props, super_sampling, cost_rays),
                       dict(max_depth=properties.depth_setting(props), leaf_size=props.leaf_size), tuple(structures), time_limit)
 
 
@@ -175,23 +178,16 @@ def running_job():
     return _running
 
 
-class RAYLAB_OT_compare_structures(bpy.types.Operator):
-    """Render the scene with every acceleration structure and compare time, tests and memory"""
-    bl_idname = "raylab.compare_structures"
-    bl_label = "Compare Structures"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    time_limit: bpy.props.FloatProperty(
-        name="Time Limit", default=-1.0, min=-1.0, options={'SKIP_SAVE', 'HIDDEN'},
-        description="Skip a structure whose render is estimated to take longer, in seconds (0: no limit; "
-                    "-1: the limit in the add-on's Preferences)")
+class StructureJobOperator:
+    """The operator side of a CompareJob, for every operator that renders once per structure (Compare
+    Structures, the heat maps): execute() runs the job at once (scripts), invoke() on a worker thread
+    watched by a modal timer (progress, a report per structure, Esc cancels). A subclass gives
+    _new_job(context), _finish(context, job) (main thread: store the results) and `activity`."""
+    activity = "comparing structures"  # for the status bar: "raylab: <activity>, bvh (40%)"
 
     @classmethod
     def poll(cls, context):
         return _running is None
-
-    def _new_job(self, context):
-        return new_job(context, None if self.time_limit < 0.0 else self.time_limit)
 
     def execute(self, context):
         """From a script: the whole comparison before returning (the time limit still applies)."""
@@ -202,7 +198,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
             return {'CANCELLED'}
         job.run()
         self._report_results(job.results)
-        return self._finish(context, job)
+        return self._done(context, job)
 
     def invoke(self, context, event):
         global _running
@@ -226,7 +222,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
         job = self._job
         if event.type == 'ESC' and event.value == 'PRESS' and not job.done:
             job.cancel()
-            self.report({'INFO'}, "raylab: cancelling the comparison")
+            self.report({'INFO'}, f"raylab: cancelling ({self.activity})")
             return {'RUNNING_MODAL'}
         if event.type != 'TIMER':
             return {'PASS_THROUGH'}
@@ -237,10 +233,16 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
             return {'PASS_THROUGH'}
         self._end(context)
         if job.cancelled:
-            self.report({'INFO'}, "raylab: comparison cancelled; the previous one is kept")
+            self.report({'INFO'}, f"raylab: cancelled ({self.activity}); the previous results are kept")
             return {'CANCELLED'}
         if context.scene.name != self._scene:
-            self.report({'WARNING'}, "raylab: the scene changed during the comparison; nothing stored")
+            self.report({'WARNING'}, f"raylab: the scene changed while {self.activity}; nothing stored")
+            return {'CANCELLED'}
+        return self._done(context, job)
+
+    def _done(self, context, job):
+        if job.error is not None:
+            self.report({'ERROR'}, f"raylab: {job.error}")
             return {'CANCELLED'}
         return self._finish(context, job)
 
@@ -258,7 +260,7 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
         context.window_manager.progress_update(job.fraction)
         if context.workspace is not None:
             context.workspace.status_text_set(
-                f"raylab: comparing structures, {job.current} ({100 * job.fraction:.0f}%), Esc to cancel")
+                f"raylab: {self.activity}, {job.current} ({100 * job.fraction:.0f}%), Esc to cancel")
         _tag_sidebar(context)
 
     def _end(self, context):
@@ -271,10 +273,22 @@ class RAYLAB_OT_compare_structures(bpy.types.Operator):
         _running = None
         _tag_sidebar(context)
 
+
+class RAYLAB_OT_compare_structures(StructureJobOperator, bpy.types.Operator):
+    """Render the scene with every acceleration structure and compare time, tests and memory"""
+    bl_idname = "raylab.compare_structures"
+    bl_label = "Compare Structures"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    time_limit: bpy.props.FloatProperty(
+        name="Time Limit", default=-1.0, min=-1.0, options={'SKIP_SAVE', 'HIDDEN'},
+        description="Skip a structure whose render is estimated to take longer, in seconds (0: no limit; "
+                    "-1: the limit in the add-on's Preferences)")
+
+    def _new_job(self, context):
+        return new_job(context, None if self.time_limit < 0.0 else self.time_limit)
+
     def _finish(self, context, job):
-        if job.error is not None:
-            self.report({'ERROR'}, f"raylab: {job.error}")
-            return {'CANCELLED'}
         job.store(context.scene, context.scene.raylab_render.super_sampling)
         rendered = [r for r in job.results if r.stats is not None]
         if not rendered:

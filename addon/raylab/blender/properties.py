@@ -212,6 +212,10 @@ class RAYLAB_PG_render(bpy.types.PropertyGroup):
                     "(Hanika 2021), so the light's edge follows the smooth shading, not the facets")
     tile_size: IntProperty(name="Tile Size", default=32, min=8, max=512,
                            description="Pixels per side of a render tile")
+    heat_maps_scale: IntProperty(
+        name="Heat Maps Scale", default=0, min=0,
+        description="The count drawn in the last colour of every heat map, one scale for all (higher "
+                    "counts get that colour too); 0: the hardest pixel of all the maps")
 
 
 # Scene attribute -> its property group.

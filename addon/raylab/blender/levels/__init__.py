@@ -13,7 +13,7 @@ and state load, so the level format can be checked in plain Python.
 import sys
 
 from .reading import (COMPARISONS, ID_PROPERTY_TESTS, LEVEL_ROOTS, OBJECT_TESTS, PACKAGE_DIR,  # noqa: F401
-                      SETTING_GROUPS, Level, LevelError, Task, available_levels, find_level, levels_root,
+                      PROBE_TESTS, SETTING_GROUPS, Level, LevelError, Task, available_levels, find_level, levels_root,
                       load_level, plain, read_text, validate_condition)
 from .state import MESH_OBJECT_NAME, STATE_KEY, level_mesh_object, state  # noqa: F401
 

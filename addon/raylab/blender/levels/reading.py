@@ -8,6 +8,26 @@ Conditions are small declarative tables, never code:
     { id_property = "raylab_last_render", exists = true }    also length_at_least, changed = true
     { object = "mesh", moved_at_least = 1.0 }                also tilted_at_least (degrees), mesh_changed
     { all = [ ... ] }, { any = [ ... ] }
+
+An id_property may name a value inside a record with dots: "raylab_heat_maps.structures.bvh.hardest" is
+scene["raylab_heat_maps"]["structures"]["bvh"]["hardest"] (missing: it does not exist). Two more tests
+read such values:
+
+    { id_property = "raylab_heat_maps.structures.bvh.hardest", decreased = true }
+        the number is lower than when the task began (a record that did not exist then cannot decrease)
+    { probe_pixel_near = "raylab_heat_maps.structures.octree.probe_pixel", within = 3 }
+        the probe's source is the camera and its pixel (probe_pixel_x, probe_pixel_y) is at most
+        `within` pixels from the [x, y] stored there, in x and in y
+
+A level may add objects beside its mesh, each a shipped mesh scaled to `size` metres (its largest side)
+at `location` (both times scene_scale), in its own colour:
+
+    [[objects]]
+    name = "Rod"
+    file = "rod.obj"
+    size = 1.6
+    location = [0.0, -1.2, 0.2]
+    color = [0.3, 0.6, 0.9]
 """
 import os
 import re
@@ -20,7 +40,9 @@ LEVEL_ROOTS = (os.path.join(PACKAGE_DIR, "levels"),
                os.path.join(os.path.dirname(os.path.dirname(PACKAGE_DIR)), "levels"))
 SETTING_GROUPS = ("raylab", "raylab_render")
 COMPARISONS = ("equals", "in", "at_least", "at_most")
-ID_PROPERTY_TESTS = ("exists", "length_at_least", "changed")
+ID_PROPERTY_TESTS = ("exists", "length_at_least", "changed", "decreased")
+PROBE_TESTS = ("within",)
+OBJECT_KEYS = {"name": str, "file": str, "size": (int, float), "location": list, "color": list}
 OBJECT_TESTS = ("moved_at_least", "tilted_at_least", "mesh_changed")
 
 
@@ -39,7 +61,7 @@ class Task:
 
 
 class Level:
-    __slots__ = ("id", "order", "title", "goal", "folder", "mesh", "scene_scale", "scene", "camera",
+    __slots__ = ("id", "order", "title", "goal", "folder", "mesh", "objects", "scene_scale", "scene", "camera",
                  "settings", "probe", "tasks", "controls", "blocks")
 
     def __init__(self, folder, data):
@@ -51,6 +73,7 @@ class Level:
         self.goal = _required(data, "goal", str, where)
         self.mesh = _table(data, "mesh", where)
         _required(self.mesh, "file", str, where + " [mesh]")
+        self.objects = _objects(data.get("objects", []), where)
         self.scene_scale = float(data.get("scene_scale", 1.0))
         if not self.scene_scale > 0.0:
             raise LevelError(f"{where}: scene_scale must be positive")
@@ -75,7 +98,7 @@ class Level:
             if not (group in SETTING_GROUPS or group.startswith("operator:")) or not name:
                 raise LevelError(f"{where}: a control is 'raylab.<setting>', 'raylab_render.<setting>' or "
                                  f"'operator:<module>.<operator>', not {control!r}")
-        unknown = set(data) - {"id", "order", "title", "goal", "mesh", "scene_scale", "scene", "camera",
+        unknown = set(data) - {"id", "order", "title", "goal", "mesh", "objects", "scene_scale", "scene", "camera",
                                "probe", "tasks", "controls", *SETTING_GROUPS}
         if unknown:
             raise LevelError(f"{where}: unknown keys {sorted(unknown)}")
@@ -88,6 +111,36 @@ def _required(table, key, kind, where):
     if not isinstance(table[key], kind):
         raise LevelError(f"{where}: '{key}' must be a {kind.__name__}, not {table[key]!r}")
     return table[key]
+
+
+def _objects(objects, where):
+    """The [[objects]] tables, checked: name and file required, size positive, location and colour three
+    numbers, names unique."""
+    if not isinstance(objects, list):
+        raise LevelError(f"{where}: 'objects' must be a list of [[objects]] tables")
+    names = set()
+    for i, obj in enumerate(objects):
+        here = f"{where} object {i + 1}"
+        if not isinstance(obj, dict):
+            raise LevelError(f"{here}: must be a table with 'name' and 'file'")
+        unknown = set(obj) - set(OBJECT_KEYS)
+        if unknown:
+            raise LevelError(f"{here}: unknown keys {sorted(unknown)} (known: {', '.join(OBJECT_KEYS)})")
+        for key in ("name", "file"):
+            _required(obj, key, str, here)
+        for key, kind in OBJECT_KEYS.items():
+            if key in obj and (not isinstance(obj[key], kind) or isinstance(obj[key], bool)):
+                raise LevelError(f"{here}: '{key}' has the wrong type: {obj[key]!r}")
+        if not obj.get("size", 1.0) > 0:
+            raise LevelError(f"{here}: size must be positive, not {obj['size']!r}")
+        for key in ("location", "color"):
+            if key in obj and (len(obj[key]) != 3 or not all(isinstance(v, (int, float)) and
+                                                               not isinstance(v, bool) for v in obj[key])):
+                raise LevelError(f"{here}: '{key}' must be three numbers, not {obj[key]!r}")
+        if obj["name"] in names:
+            raise LevelError(f"{here}: a second object named {obj['name']!r}")
+        names.add(obj["name"])
+    return objects
 
 
 def _table(data, key, where, optional=False):
@@ -108,7 +161,8 @@ def validate_condition(condition, where):
             for part in parts:
                 validate_condition(part, where)
             return
-    kinds = {"property": COMPARISONS, "id_property": ID_PROPERTY_TESTS, "object": OBJECT_TESTS}
+    kinds = {"property": COMPARISONS, "id_property": ID_PROPERTY_TESTS, "object": OBJECT_TESTS,
+             "probe_pixel_near": PROBE_TESTS}
     kind = [k for k in kinds if k in condition]
     if len(kind) != 1:
         raise LevelError(f"{where}: a condition needs exactly one of {sorted(kinds)} (or all / any): "
@@ -122,6 +176,15 @@ def validate_condition(condition, where):
         if group not in SETTING_GROUPS or not name.isidentifier() or name.startswith("_"):
             raise LevelError(f"{where}: property must be 'raylab.<name>' or 'raylab_render.<name>', "
                              f"not {condition['property']!r}")
+    if kind in ("id_property", "probe_pixel_near"):
+        path = condition[kind]
+        if not isinstance(path, str) or not all(part for part in path.split(".")):
+            raise LevelError(f"{where}: {kind} must name an ID property, dots between its keys: {path!r}")
+    if kind == "id_property" and "decreased" in condition and condition["decreased"] is not True:
+        raise LevelError(f"{where}: decreased takes true: {condition!r}")
+    if kind == "probe_pixel_near" and (isinstance(condition["within"], bool)
+                                       or not isinstance(condition["within"], int) or condition["within"] < 0):
+        raise LevelError(f"{where}: within must be a whole number of pixels >= 0: {condition!r}")
     if kind == "object" and condition["object"] != "mesh":
         raise LevelError(f"{where}: only object = \"mesh\" (the level's mesh) is known")
 

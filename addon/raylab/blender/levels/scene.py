@@ -94,6 +94,9 @@ def _new_scene(level):
     filename = level.mesh["file"]
     _set_mesh(obj, *shipped_mesh_arrays(filename), MESH_SIZE * s, filename, mesh_credit(filename))
 
+    for spec in level.objects:
+        _add_object(scene, spec, s)
+
     camera = bpy.data.objects.new(CAMERA_NAME, bpy.data.cameras.new(CAMERA_NAME))
     camera.data.lens = float(level.camera.get("lens", 50.0))
     camera.data.clip_start, camera.data.clip_end = 0.1 * s, 1000.0 * s
@@ -114,6 +117,20 @@ def _new_scene(level):
                         "start_mesh": filename, "start_matrix": [v for row in obj.matrix_world for v in row],
                         "scene_scale": s, "snapshots": "{}"}
     return scene, obj
+
+
+def _add_object(scene, spec, scale):
+    """One of the level's [[objects]]: a shipped mesh of `size` metres at `location`, in its colour."""
+    filename = spec["file"]
+    vertices, triangles = shipped_mesh_arrays(filename)
+    mesh = mesh_from_arrays(f"level {spec['name']}", normalised(vertices, float(spec.get("size", MESH_SIZE)) * scale),
+                            triangles, smooth=False)
+    mesh.materials.append(principled_material(spec["name"], tuple(spec.get("color", (0.3, 0.6, 0.9)))))
+    obj = bpy.data.objects.new(spec["name"], mesh)
+    obj.location = Vector(spec.get("location", (0.0, 0.0, 0.0))) * scale
+    obj["raylab_credit"] = mesh_credit(filename)
+    scene.collection.objects.link(obj)
+    return obj
 
 
 def _new_world(level):

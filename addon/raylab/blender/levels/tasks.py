@@ -20,9 +20,22 @@ def _property_value(scene, path):
     return getattr(getattr(scene, group), name)
 
 
-def _id_value(scene, key):
+def _plain(value):
+    """An ID property's value as Python data: dicts, lists and numbers."""
+    if hasattr(value, "to_dict"):
+        return value.to_dict()
+    return value.to_list() if hasattr(value, "to_list") else value
+
+
+def _id_value(scene, path):
+    """The ID property `path` names: a key of the scene, then keys inside it after dots; None if missing."""
+    key, *inside = path.split(".")
     value = scene.get(key)
-    return value.to_dict() if hasattr(value, "to_dict") else value
+    for part in inside:
+        if not hasattr(value, "get") or hasattr(value, "to_list"):
+            return None
+        value = value.get(part)
+    return _plain(value)
 
 
 def _fingerprint(value):
@@ -30,9 +43,10 @@ def _fingerprint(value):
 
 
 def _changed_keys(condition):
+    """The ID properties whose value at the task's start the condition compares with."""
     if "all" in condition or "any" in condition:
         return [k for part in condition.get("all", condition.get("any")) for k in _changed_keys(part)]
-    return [condition["id_property"]] if condition.get("changed") else []
+    return [condition["id_property"]] if condition.get("changed") or condition.get("decreased") else []
 
 
 def _take_snapshots(scene, level, index):
@@ -74,7 +88,18 @@ def evaluate_condition(scene, condition, index=0):
         if "length_at_least" in condition:
             return value is not None and len(value) >= condition["length_at_least"]
         snapshot = json.loads(scene[STATE_KEY]["snapshots"]).get(f"{index}:{key}")
+        if "decreased" in condition:
+            start = None if snapshot is None else json.loads(snapshot)
+            numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (value, start))
+            return numbers and value < start
         return value is not None and (_fingerprint(value) != snapshot) == condition["changed"]
+    if "probe_pixel_near" in condition:
+        target = _id_value(scene, condition["probe_pixel_near"])
+        settings = scene.raylab
+        if settings.probe_source != 'CAMERA' or not isinstance(target, list) or len(target) != 2:
+            return False
+        pixel = (settings.probe_pixel_x, settings.probe_pixel_y)
+        return all(abs(p - t) <= condition["within"] for p, t in zip(pixel, target))
     st = scene[STATE_KEY]
     obj = level_mesh_object(scene)
     if obj is None:

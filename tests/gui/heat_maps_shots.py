@@ -1,0 +1,144 @@
+"""Runs inside a real Blender window (xvfb-run): opens the "Where does the work go?" level, presses
+Render Heat Maps as a student does (the modal job, on its worker thread), waits for it, and takes a
+screenshot of the window: the level's tasks with the numbers under them, and below the 3D viewport the
+Image Editor with the heat maps and the numbers in its sidebar.
+
+    xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup START.blend --enable-event-simulate \
+        --python tests/gui/heat_maps_shots.py -- OUT_DIR
+
+OUT_DIR/heat_maps_picture.png (the picture as it is), OUT_DIR/heat_maps_window.png (the screenshot),
+OUT_DIR/heat_maps_shots.json: the tasks' ticks, the record, and where each map lies in the
+window (from the Image Editor's view, in window pixels, y from the bottom); or "error".
+"""
+import json
+import os
+import sys
+import traceback
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, os.pardir, os.pardir)
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, HERE)
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
+
+OUT_DIR = sys.argv[sys.argv.index("--") + 1]
+os.makedirs(OUT_DIR, exist_ok=True)
+LEVEL = "where_work_goes"
+WATCHDOG_SECONDS = 300
+report = {}
+
+
+def finish():
+    with open(os.path.join(OUT_DIR, "heat_maps_shots.json"), "w") as f:
+        json.dump(report, f)
+    bpy.ops.wm.quit_blender()
+
+
+try:
+    import raylab  # noqa: E402
+    from raylab.blender import compare, heat_maps, levels  # noqa: E402
+except Exception:
+    report["error"] = traceback.format_exc()
+    finish()
+
+
+def picture_area():
+    """The Image Editor showing the heat maps, and its window (the main one: the maps open under the
+    3D viewport)."""
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == 'IMAGE_EDITOR' and area.spaces.active.image is not None \
+                    and area.spaces.active.image.name == heat_maps.IMAGE_NAME:
+                return window, area
+    return None, None
+
+
+def open_level():
+    levels.open_level(bpy.context, LEVEL)
+    show_sidebar()
+
+
+def press_render_heat_maps():
+    window, area, region, _ = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.raylab.heat_maps('INVOKE_DEFAULT', time_limit=0.0) == {'RUNNING_MODAL'}
+
+
+def wait_for_the_job():
+    """Retried until the job has ended and stored its record (the modal operator does that)."""
+    return compare.running_job() is None and heat_maps.RECORD in bpy.context.scene
+
+
+def fit_the_picture():
+    window, area = picture_area()
+    assert area is not None, "no Image Editor shows the heat maps"
+    region = next(r for r in area.regions if r.type == 'WINDOW')
+    area.spaces.active.show_gizmo = False  # the zoom and pan buttons would sit on the last map
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        bpy.ops.image.view_all(fit_view=True)
+
+
+def shoot():
+    scene = bpy.context.scene
+    window, area = picture_area()
+    region = next(r for r in area.regions if r.type == 'WINDOW')
+    image = area.spaces.active.image
+    record = scene[heat_maps.RECORD].to_dict()
+    image_width, image_height = image.size
+    width, height = record["size"]
+    maps, bands = [], []
+
+    def rect(left, top_row, bottom_row):
+        # The image's own coordinates (0..1, v up) to the window's pixels.
+        x0, y0 = region.view2d.view_to_region(left / image_width, 1.0 - bottom_row / image_height, clip=False)
+        x1, y1 = region.view2d.view_to_region((left + width) / image_width, 1.0 - top_row / image_height, clip=False)
+        return dict(x0=region.x + x0, y0=region.y + y0, x1=region.x + x1, y1=region.y + y1)
+
+    for i, _ in enumerate(record["structures"]):
+        left = i * (width + heat_maps.GAP)
+        maps.append(rect(left, 0, height))  # the maps are the picture's top rows
+        bands.append(rect(left, height, height + heat_maps.NUMBER_BAND))  # their numbers under them
+    report.update(record=record, maps=maps, bands=bands, window_height=window.height,
+                  window=dict(x=window.x, y=window.y, width=window.width, height=window.height),
+                  region=dict(x=region.x, y=region.y, width=region.width, height=region.height),
+                  ticks=[done for _, done in levels.task_list(scene)])
+    # The picture itself, as the README shows it.
+    pixels = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(pixels)
+    raylab.write_image(os.path.join(OUT_DIR, "heat_maps_picture.png"),
+                       pixels.reshape(image_height, image_width, 4)[::-1])
+    screenshot(os.path.join(OUT_DIR, "heat_maps_window.png"), window=window)
+
+
+STEPS = [open_level, click_raylab_tab, press_render_heat_maps, wait_for_the_job, fit_the_picture, shoot]
+
+
+def run():
+    try:
+        step = STEPS[0]
+        if step() is False:  # a wait: try again on the next tick
+            return 1.0
+        STEPS.pop(0)
+        if STEPS:
+            return 1.5
+    except Exception:
+        report["error"] = traceback.format_exc()
+    finish()
+    return None
+
+
+def watchdog():
+    report["error"] = f"the shots did not finish within {WATCHDOG_SECONDS} s; steps left: {[s.__name__ for s in STEPS]}"
+    finish()
+
+
+try:
+    raylab.register()
+    bpy.app.timers.register(run, first_interval=2.0)
+    bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
+except Exception:
+    report["error"] = traceback.format_exc()
+    finish()
