@@ -68,22 +68,28 @@ py::dict box_lines_dict(const std::vector<BoxInfo>& b, py::handle depth_min, py:
   if (!palette.is_none()) o.palette = palette_parameter(palette);
   o.fade = bool_parameter(fade, "fade");
   o.alpha_scale = float(number_parameter(alpha_scale, "alpha_scale"));
-  BoxLines lines;
+  if (o.palette.empty()) throw py::value_error("palette must have at least one colour");
+  std::vector<uint32_t> selected;
   {
     py::gil_scoped_release release;
-    lines = box_lines(b, o);
+    selected = selected_boxes(b, o);
   }
-  const auto n = py::ssize_t(lines.box_count);
+  const auto n = py::ssize_t(selected.size());
   py::array_t<float> positions({8 * n, py::ssize_t(3)}), colors({8 * n, py::ssize_t(4)});
   py::array_t<uint32_t> indices({12 * n, py::ssize_t(2)});
-  std::copy_n(reinterpret_cast<const float*>(lines.positions.data()), 3 * lines.positions.size(), positions.mutable_data());
-  std::copy_n(reinterpret_cast<const float*>(lines.colors.data()), 4 * lines.colors.size(), colors.mutable_data());
-  std::copy_n(reinterpret_cast<const uint32_t*>(lines.indices.data()), 2 * lines.indices.size(), indices.mutable_data());
+  // Written in place (numpy's C-contiguous rows are glm's packed vectors), without the GIL.
+  const std::span<glm::vec3> p(reinterpret_cast<glm::vec3*>(positions.mutable_data()), size_t(8 * n));
+  const std::span<glm::vec4> c(reinterpret_cast<glm::vec4*>(colors.mutable_data()), size_t(8 * n));
+  const std::span<glm::uvec2> e(reinterpret_cast<glm::uvec2*>(indices.mutable_data()), size_t(12 * n));
+  {
+    py::gil_scoped_release release;
+    write_box_lines(b, selected, o, p, c, e);
+  }
   py::dict d;
   d["positions"] = positions;
   d["colors"] = colors;
   d["indices"] = indices;
-  d["box_count"] = lines.box_count;
+  d["box_count"] = selected.size();
   return d;
 }
 
