@@ -171,9 +171,18 @@ class Structure:
         count, per_ray and threads as in intersect()."""
         return Occlusion(self.native.occluded(origins, directions, tmin, tmax, count, per_ray, threads))
 
-    def boxes(self):
-        """The boxes: dict lo (B,3) f32, hi (B,3) f32, depth (B,) i32, leaf (B,) bool, triangle_count (B,) u32."""
-        return self.native.boxes()
+    def boxes(self, lines=False, depth_min=0, depth_max=None, leaves_only=False, palette=None, fade=False,
+              alpha_scale=1.0):
+        """The boxes: dict lo (B,3) f32, hi (B,3) f32, depth (B,) i32, leaf (B,) bool, triangle_count (B,) u32.
+
+        lines=True: instead, the boxes with depth_min <= depth <= depth_max (None: no upper end), only
+        the leaves with leaves_only, as line geometry ready for a GPU batch: dict positions (8B,3) f32
+        (corner c of a box takes hi on axis a where bit a of c is set), colors (8B,4) f32, indices
+        (12B,2) u32 (the 12 edges), box_count. A box at depth d is coloured palette[d % P] ((P,4) RGBA
+        rows, or one (4,) colour; None: white); fade=True multiplies its alpha by
+        max(1 / (1 + 0.35 d) * min(1, sqrt(200 / B)), 0.12), and every alpha is multiplied by
+        alpha_scale."""
+        return self.native.boxes(lines, depth_min, depth_max, leaves_only, palette, fade, alpha_scale)
 
     def statuses(self, origins, directions, tmin=0.0, tmax=math.inf, threads=None):
         """Closest hits of N rays plus each ray's status, what its story would say without recording

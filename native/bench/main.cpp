@@ -251,53 +251,80 @@ Json stats_json(const TraversalStats& s) {
 
 constexpr double kCheckSeconds = 1.0;
 
-// Times both queries on every ray set at every thread count; `extra(set, rays)` adds what only
-// one kind of tracer reports (raylab's counts and agreement).
-Json trace_runs(const Tracer& tracer, const std::vector<RaySet>& sets, const Options& o,
-                const std::function<Json(const RaySet&, const std::vector<Ray>&)>& extra) {
+// One tracer of the run (a raylab structure or an Embree build) and what it reports.
+struct Contender {
+  std::string name;
+  Tracer tracer;
+  // What only one kind of tracer reports (raylab's counts and agreement) on `rays` of a set.
+  std::function<Json(const RaySet&, const std::vector<Ray>&)> extra;
   Json runs = Json::array(), per_set = Json::object();
+};
+
+// Times both queries of every contender on every ray set at every thread count. The repetitions
+// are interleaved (repetition r of every contender, then r + 1), so that a machine shared with other
+// processes slows them alike and the medians' ratios stay fair.
+void trace_runs(std::vector<Contender>& contenders, const std::vector<RaySet>& sets, const Options& o) {
   for (const RaySet& set : sets) {
-    const size_t n = rays_per_repetition(tracer, set.rays, o.rep_seconds);
-    const std::vector<Ray> subset = strided(set.rays, n);
-    std::vector<Hit> hits(n);
-    std::vector<uint8_t> occluded(n);
+    std::vector<std::vector<Ray>> subsets;
+    for (const Contender& c : contenders)
+      subsets.push_back(strided(set.rays, rays_per_repetition(c.tracer, set.rays, o.rep_seconds)));
     for (int threads : o.threads) {
       tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
       for (const char* query : {"closest", "any"}) {
         const bool closest = query[0] == 'c';
-        auto work = [&] { closest ? tracer.closest(subset, hits) : tracer.any(subset, occluded); };
-        work();  // warm-up: caches and lazily started worker threads
-        std::vector<double> seconds;
-        for (int r = 0; r < o.reps; ++r) seconds.push_back(seconds_of(work));
-        const double med = median(seconds);
-        runs.push_back({{"rays", set.name},
-                        {"query", query},
-                        {"threads", threads},
-                        {"ray_count", n},
-                        {"seconds_median", med},
-                        {"seconds", seconds},
-                        {"rays_per_second", double(n) / med}});
+        std::vector<std::function<void()>> work;
+        std::vector<std::vector<Hit>> hits(contenders.size());
+        std::vector<std::vector<uint8_t>> occluded(contenders.size());
+        for (size_t i = 0; i < contenders.size(); ++i) {
+          hits[i].resize(subsets[i].size());
+          occluded[i].resize(subsets[i].size());
+          work.push_back([&, i] {
+            closest ? contenders[i].tracer.closest(subsets[i], hits[i]) : contenders[i].tracer.any(subsets[i], occluded[i]);
+          });
+          work[i]();  // warm-up: caches and lazily started worker threads
+        }
+        std::vector<std::vector<double>> seconds(contenders.size());
+        for (int r = 0; r < o.reps; ++r)
+          for (size_t i = 0; i < contenders.size(); ++i) seconds[i].push_back(seconds_of(work[i]));
+        for (size_t i = 0; i < contenders.size(); ++i) {
+          const double med = median(seconds[i]);
+          const size_t n = subsets[i].size();
+          contenders[i].runs.push_back({{"rays", set.name},
+                                        {"query", query},
+                                        {"threads", threads},
+                                        {"ray_count", n},
+                                        {"seconds_median", med},
+                                        {"seconds", seconds[i]},
+                                        {"rays_per_second", double(n) / med}});
+        }
       }
     }
     // Counts and agreement on every ray of the set when the tracer gets through them in about
     // kCheckSeconds; brute force on a million triangles checks the rays it can.
-    const size_t checked = n == set.rays.size()
-                               ? n
+    for (size_t i = 0; i < contenders.size(); ++i) {
+      const size_t n = subsets[i].size();
+      const size_t checked =
+          n == set.rays.size() ? n
                                : std::min(set.rays.size(), std::max(n, size_t(double(n) / o.rep_seconds * kCheckSeconds)));
-    per_set[set.name] = extra(set, strided(set.rays, checked));
+      contenders[i].per_set[set.name] = contenders[i].extra(set, strided(set.rays, checked));
+    }
   }
-  return {{"runs", runs}, {"per_ray_set", per_set}};
 }
 
-Json build_times_json(const Options& o, const std::function<double()>& build) {
-  Json m = Json::object();
+// Build times of every builder at every thread count, repetitions interleaved as in trace_runs.
+// `build(i)` builds contender i and returns its seconds; it throws for a structure that cannot be
+// built (the caller leaves it out).
+std::vector<Json> build_times_json(const Options& o, size_t count, const std::function<double(size_t)>& build) {
+  std::vector<Json> out(count, Json::object());
   for (int threads : o.threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
-    std::vector<double> seconds;
-    for (int r = 0; r < o.build_reps; ++r) seconds.push_back(build());
-    m[std::to_string(threads)] = {{"seconds_median", median(seconds)}, {"seconds", seconds}};
+    std::vector<std::vector<double>> seconds(count);
+    for (int r = 0; r < o.build_reps; ++r)
+      for (size_t i = 0; i < count; ++i) seconds[i].push_back(build(i));
+    for (size_t i = 0; i < count; ++i)
+      out[i][std::to_string(threads)] = {{"seconds_median", median(seconds[i])}, {"seconds", seconds[i]}};
   }
-  return m;
+  return out;
 }
 
 void export_for_python(const Options& o, const TriangleMesh& mesh, const std::vector<RaySet>& sets,
@@ -336,28 +363,57 @@ int run(const Options& o) {
   EmbreeTracer oracle(*mesh);
   oracle.build(RTC_BUILD_QUALITY_MEDIUM);
 
+  // Every structure and Embree build first (one that cannot be built is reported with its error),
+  // then the build times and the tracing, each interleaved across them.
   Json tracers = Json::array();
+  struct Built {
+    std::string name, kind;
+    BuildSettings settings;          // raylab
+    std::unique_ptr<Structure> structure;
+    RTCBuildQuality quality{};       // Embree
+    std::unique_ptr<EmbreeTracer> embree;
+  };
+  std::vector<Built> built;
   for (const std::string& name : o.structures) {
     std::cerr << "  " << name << "\n";
-    BuildSettings settings;
-    settings.kind = structure_kind_from_name(name);
-    settings.max_depth = o.max_depth;
-    settings.leaf_size = o.leaf_size;
-    std::unique_ptr<Structure> structure;
-    Json build_times;
+    Built b{name, "raylab"};
+    b.settings.kind = structure_kind_from_name(name);
+    b.settings.max_depth = o.max_depth;
+    b.settings.leaf_size = o.leaf_size;
     try {
-      build_times = build_times_json(o, [&] {
-        structure = build_structure(mesh, settings);
-        return structure->build_seconds();
-      });
+      b.structure = build_structure(mesh, b.settings);
     } catch (const std::exception& e) {  // a structure not written yet, or over the memory budget
       tracers.push_back({{"name", name}, {"kind", "raylab"}, {"error", e.what()}});
       continue;
     }
-    const Structure& s = *structure;
-    const Tracer tracer{[&](auto r, auto h) { intersect_closest(s, r, h, nullptr); },
-                        [&](auto r, auto oc) { intersect_any(s, r, oc, nullptr); }};
-    auto counts_and_agreement = [&](const RaySet&, const std::vector<Ray>& rays) {
+    built.push_back(std::move(b));
+  }
+  for (const std::string& quality : o.embree_qualities) {
+    std::cerr << "  embree " << quality << "\n";
+    Built b{"embree_" + quality, "embree"};
+    b.quality = kEmbreeQualities.at(quality);
+    b.embree = std::make_unique<EmbreeTracer>(*mesh);
+    b.embree->build(b.quality);
+    built.push_back(std::move(b));
+  }
+  const std::vector<Json> build_times = build_times_json(o, built.size(), [&](size_t i) {
+    Built& b = built[i];
+    if (b.embree) return b.embree->build(b.quality);
+    b.structure = build_structure(mesh, b.settings);
+    return b.structure->build_seconds();
+  });
+
+  std::vector<Contender> contenders;
+  for (Built& b : built) {
+    if (b.embree) {
+      EmbreeTracer& embree = *b.embree;
+      contenders.push_back({b.name, {[&embree](auto r, auto h) { embree.closest(r, h); },
+                                     [&embree](auto r, auto oc) { embree.any(r, oc); }},
+                            [](const RaySet&, const std::vector<Ray>&) { return Json::object(); }});
+      continue;
+    }
+    const Structure& s = *b.structure;
+    auto counts_and_agreement = [&s, &mesh, &oracle](const RaySet&, const std::vector<Ray>& rays) {
       std::vector<Hit> ours(rays.size()), theirs(rays.size());
       std::vector<uint8_t> our_any(rays.size()), their_any(rays.size());
       TraversalStats closest_stats, any_stats;
@@ -370,28 +426,19 @@ int run(const Options& o) {
                    {{"closest", comparison_json(*mesh, compare_closest(*mesh, rays, ours, theirs))},
                     {"any", comparison_json(*mesh, compare_any(*mesh, rays, our_any, their_any, ours, theirs))}}}};
     };
-    Json traced = trace_runs(tracer, sets, o, counts_and_agreement);
-    tracers.push_back({{"name", name},
-                       {"kind", "raylab"},
-                       {"error", nullptr},
-                       {"build", std::move(build_times)},
-                       {"memory_bytes", s.memory_bytes()},
-                       {"tracing", std::move(traced)}});
+    contenders.push_back({b.name, {[&s](auto r, auto h) { intersect_closest(s, r, h, nullptr); },
+                                   [&s](auto r, auto oc) { intersect_any(s, r, oc, nullptr); }},
+                          counts_and_agreement});
   }
-
-  for (const std::string& quality : o.embree_qualities) {
-    std::cerr << "  embree " << quality << "\n";
-    EmbreeTracer embree(*mesh);
-    const RTCBuildQuality q = kEmbreeQualities.at(quality);
-    Json build_times = build_times_json(o, [&] { return embree.build(q); });
-    const Tracer tracer{[&](auto r, auto h) { embree.closest(r, h); }, [&](auto r, auto oc) { embree.any(r, oc); }};
-    Json traced = trace_runs(tracer, sets, o, [](const RaySet&, const std::vector<Ray>&) { return Json::object(); });
-    tracers.push_back({{"name", "embree_" + quality},
-                       {"kind", "embree"},
+  trace_runs(contenders, sets, o);
+  for (size_t i = 0; i < built.size(); ++i) {
+    const Built& b = built[i];
+    tracers.push_back({{"name", b.name},
+                       {"kind", b.kind},
                        {"error", nullptr},
-                       {"build", std::move(build_times)},
-                       {"memory_bytes", embree.memory_bytes()},
-                       {"tracing", std::move(traced)}});
+                       {"build", build_times[i]},
+                       {"memory_bytes", b.embree ? b.embree->memory_bytes() : b.structure->memory_bytes()},
+                       {"tracing", {{"runs", std::move(contenders[i].runs)}, {"per_ray_set", std::move(contenders[i].per_set)}}}});
   }
 
   export_for_python(o, *mesh, sets, oracle);

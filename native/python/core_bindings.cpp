@@ -3,6 +3,7 @@
 #include "bindings.h"
 #include "core_arrays.h"
 
+#include "raylab/box_lines.h"
 #include "raylab/mesh_io.h"
 #include "raylab/structure.h"
 
@@ -47,8 +48,59 @@ py::tuple mesh_to_arrays(const TriangleMesh& mesh) {
   return py::make_tuple(v, t);
 }
 
-py::dict boxes(const Structure& s) {
-  const std::vector<BoxInfo> b = s.boxes();
+// (P,4) real RGBA rows (or one (4,) row) -> the palette of box_lines; ValueError naming `palette`.
+std::vector<glm::vec4> palette_parameter(py::handle value) {
+  const auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(value);
+  const bool shaped = a && ((a.ndim() == 2 && a.shape(1) == 4 && a.shape(0) >= 1) || (a.ndim() == 1 && a.shape(0) == 4));
+  if (!shaped) throw py::value_error("palette must be RGBA rows, (P,4) with P >= 1 or (4,), got " + describe(value));
+  std::vector<glm::vec4> palette(size_t(a.size() / 4));
+  std::copy_n(a.data(), a.size(), reinterpret_cast<float*>(palette.data()));
+  return palette;
+}
+
+// The overlay's arrays (box_lines.h): positions (8B,3) f32, colors (8B,4) f32, indices (12B,2) u32.
+py::dict box_lines_dict(const std::vector<BoxInfo>& b, py::handle depth_min, py::handle depth_max,
+                        py::handle leaves_only, py::handle palette, py::handle fade, py::handle alpha_scale) {
+  BoxLineOptions o;
+  o.depth_min = int32_parameter(depth_min, "depth_min");
+  if (!depth_max.is_none()) o.depth_max = int32_parameter(depth_max, "depth_max");
+  o.leaves_only = bool_parameter(leaves_only, "leaves_only");
+  if (!palette.is_none()) o.palette = palette_parameter(palette);
+  o.fade = bool_parameter(fade, "fade");
+  o.alpha_scale = float(number_parameter(alpha_scale, "alpha_scale"));
+  if (o.palette.empty()) throw py::value_error("palette must have at least one colour");
+  std::vector<uint32_t> selected;
+  {
+    py::gil_scoped_release release;
+    selected = selected_boxes(b, o);
+  }
+  const auto n = py::ssize_t(selected.size());
+  py::array_t<float> positions({8 * n, py::ssize_t(3)}), colors({8 * n, py::ssize_t(4)});
+  py::array_t<uint32_t> indices({12 * n, py::ssize_t(2)});
+  // Written in place (numpy's C-contiguous rows are glm's packed vectors), without the GIL.
+  const std::span<glm::vec3> p(reinterpret_cast<glm::vec3*>(positions.mutable_data()), size_t(8 * n));
+  const std::span<glm::vec4> c(reinterpret_cast<glm::vec4*>(colors.mutable_data()), size_t(8 * n));
+  const std::span<glm::uvec2> e(reinterpret_cast<glm::uvec2*>(indices.mutable_data()), size_t(12 * n));
+  {
+    py::gil_scoped_release release;
+    write_box_lines(b, selected, o, p, c, e);
+  }
+  py::dict d;
+  d["positions"] = positions;
+  d["colors"] = colors;
+  d["indices"] = indices;
+  d["box_count"] = selected.size();
+  return d;
+}
+
+py::dict boxes(const Structure& s, py::handle lines, py::handle depth_min, py::handle depth_max,
+               py::handle leaves_only, py::handle palette, py::handle fade, py::handle alpha_scale) {
+  std::vector<BoxInfo> b;
+  {
+    py::gil_scoped_release release;
+    b = s.boxes();
+  }
+  if (bool_parameter(lines, "lines")) return box_lines_dict(b, depth_min, depth_max, leaves_only, palette, fade, alpha_scale);
   py::dict d;
   put_bounds(d, b);
   d["depth"] = column<int32_t>(b, [](const BoxInfo& x) { return x.depth; });
@@ -104,7 +156,9 @@ void bind_core(py::module_& m) {
       .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("per_ray") = false,
            py::arg("threads") = py::none())
-      .def("boxes", &boxes)
+      .def("boxes", &boxes, py::arg("lines") = false, py::arg("depth_min") = 0, py::arg("depth_max") = py::none(),
+           py::arg("leaves_only") = false, py::arg("palette") = py::none(), py::arg("fade") = false,
+           py::arg("alpha_scale") = 1.0)
       .def("statuses", &statuses, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("threads") = py::none())
       .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0,

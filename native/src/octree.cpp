@@ -398,25 +398,35 @@ std::vector<BoxInfo> Octree::boxes() const {
       }
   }
   // An inner node counts each triangle below it once, though it may sit in several of its leaves.
-  std::vector<uint32_t> counted_for(mesh_->triangle_count(), kInvalidIndex);
-  std::vector<uint32_t> stack;
-  for (uint32_t i = 0; i < nodes_.size(); ++i) {
-    if (nodes_[i].leaf()) continue;
-    stack.assign(1, i);
-    while (!stack.empty()) {
-      const OctreeNode& node = nodes_[stack.back()];
-      stack.pop_back();
-      if (node.leaf()) {
-        for (uint32_t t : leaf_triangles(uint32_t(&node - nodes_.data())))
-          if (counted_for[t] != i) {
-            counted_for[t] = i;
-            ++out[i].triangle_count;
-          }
-        continue;
-      }
-      for (int octant = 0; octant < 8; ++octant)
+  // One depth-first walk: a leaf's triangle counts for each of its ancestors unless an earlier leaf
+  // under that ancestor had it (counted_at[depth][t] names the last ancestor at that depth that
+  // counted t; the walk finishes one subtree before the next). Walking each inner node's subtree
+  // again instead took 133 ms of a depth-8 octree on the dragon (112,730 boxes), this a tenth.
+  int deepest = 0;
+  for (const BoxInfo& b : out) deepest = std::max(deepest, b.depth);
+  const size_t n_triangles = mesh_->triangle_count();
+  std::vector<uint32_t> counted_at(size_t(deepest) * n_triangles, kInvalidIndex);
+  uint32_t path[BuildSettings::kMaxDepthLimit + 1];
+  std::vector<uint32_t> stack{0};
+  while (!stack.empty()) {
+    const uint32_t i = stack.back();
+    stack.pop_back();
+    const OctreeNode& node = nodes_[i];
+    const int depth = out[i].depth;
+    path[depth] = i;
+    if (!node.leaf()) {
+      for (int octant = 8; octant-- > 0;)
         if ((node.child_mask() >> octant) & 1u) stack.push_back(node.child(octant));
+      continue;
     }
+    for (uint32_t t : leaf_triangles(i))
+      for (int d = 0; d < depth; ++d) {
+        uint32_t& last = counted_at[size_t(d) * n_triangles + t];
+        if (last != path[d]) {
+          last = path[d];
+          ++out[path[d]].triangle_count;
+        }
+      }
   }
   return out;
 }

@@ -13,7 +13,7 @@ from mathutils import Matrix
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import overlay, probe, spin, structure_cache  # noqa: E402
+from raylab.blender import draw, overlay, probe, spin, structure_cache  # noqa: E402
 
 
 @pytest.fixture
@@ -188,3 +188,43 @@ def test_one_raylab_scene_per_blender_scene(monkey_scene):
     assert model.instances == [monkey.name_full]
     generation = model.generation  # a refused instance is not tried again on every redraw
     assert structure_cache.scene_model(scene).generation == generation
+
+
+@pytest.mark.parametrize("structure", ["octree", "bvh", "aabb"])
+def test_core_line_arrays_equal_the_former_numpy_ones(monkey_scene, structure):
+    """The overlay's arrays come from the core (Structure.boxes(lines=True)); they equal, value for value,
+    what overlay.py made from boxes() with numpy before, for each filter and colouring."""
+    scene, monkey = monkey_scene
+    settings = scene.raylab
+    settings.structure = structure
+    boxes = structure_cache.structure_for(monkey, settings).boxes()
+    corner_bits = np.array([[(c >> axis) & 1 for axis in range(3)] for c in range(8)], dtype=bool)
+    for depth_min, depth_max, leaves_only, by_depth, fade, probe_on in [(0, 64, False, True, True, False),
+                                                                        (1, 3, False, False, True, True),
+                                                                        (0, 64, True, False, False, False)]:
+        settings.depth_min, settings.depth_max = depth_min, depth_max
+        settings.leaves_only, settings.color_by_depth, settings.fade = leaves_only, by_depth, fade
+        settings.probe_enabled = probe_on
+        geometry = overlay.line_geometry(monkey, scene)
+        keep = (boxes["depth"] >= settings.depth_min) & (boxes["depth"] <= settings.depth_max)
+        if leaves_only:
+            keep &= boxes["leaf"]
+        lo, hi, depth = boxes["lo"][keep], boxes["hi"][keep], boxes["depth"][keep]
+        corners = np.where(corner_bits[None, :, :], hi[:, None, :], lo[:, None, :]).reshape(-1, 3)
+        if by_depth:
+            rgba = np.empty((len(depth), 4), dtype=np.float32)
+            rgba[:, :3] = overlay.DEPTH_PALETTE[depth % len(overlay.DEPTH_PALETTE)]
+            rgba[:, 3] = 1.0
+        else:
+            rgba = np.tile(np.asarray(settings.line_color, dtype=np.float32), (len(depth), 1))
+        if fade:
+            by_density = min(1.0, np.sqrt(200.0 / max(len(depth), 1)))
+            rgba[:, 3] *= np.maximum(1.0 / (1.0 + 0.35 * depth.astype(np.float32)) * by_density, 0.12)
+        if probe_on:
+            rgba[:, 3] *= overlay.PROBE_DIM
+        assert geometry.box_count == int(keep.sum())
+        np.testing.assert_array_equal(geometry.positions, corners.astype(np.float32))
+        np.testing.assert_array_equal(geometry.colors, np.repeat(rgba, 8, axis=0))
+        edges = (draw.BOX_EDGES[None, :, :] + (8 * np.arange(len(depth), dtype=np.uint32))[:, None, None])
+        np.testing.assert_array_equal(geometry.indices, edges.reshape(-1, 2))
+    settings.probe_enabled = False

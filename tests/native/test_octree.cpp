@@ -11,6 +11,7 @@
 #include <bit>
 #include <cstdio>
 #include <random>
+#include <set>
 
 using namespace raylab;
 using namespace raylab::test;  // support.h
@@ -210,6 +211,32 @@ TEST(Octree, DepthLeafSizeAndEmptyOctantsShapeTheTree) {
   ASSERT_EQ(nodes.size(), 3u);
   EXPECT_EQ(nodes[0].child_mask(), 0x81u);
   EXPECT_TRUE(nodes[1].leaf() && nodes[2].leaf());
+}
+
+// An inner box counts each triangle of its subtree once, however many of its leaves hold it.
+TEST(Octree, BoxTriangleCountsAreTheSubtreesDistinctTriangles) {
+  const MeshPtr bunny = shipped("bunny.obj");
+  for (int max_depth : {2, 5, 8}) {
+    const auto s = build(bunny, StructureKind::Octree, max_depth, 4);
+    const Octree& octree = octree_of(*s);
+    const std::vector<BoxInfo> boxes = s->boxes();
+    const auto nodes = octree.nodes();
+    for (uint32_t i = 0; i < boxes.size(); ++i) {
+      std::set<uint32_t> below;
+      std::vector<uint32_t> stack{i};
+      while (!stack.empty()) {
+        const uint32_t n = stack.back();
+        stack.pop_back();
+        if (nodes[n].leaf()) {
+          for (uint32_t t : octree.leaf_triangles(n)) below.insert(t);
+          continue;
+        }
+        for (int octant = 0; octant < 8; ++octant)
+          if ((nodes[n].child_mask() >> octant) & 1u) stack.push_back(nodes[n].child(octant));
+      }
+      ASSERT_EQ(boxes[i].triangle_count, below.size()) << "box " << i << " at depth " << boxes[i].depth;
+    }
+  }
 }
 
 TEST(Octree, BuildIsDeterministic) {

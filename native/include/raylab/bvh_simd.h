@@ -1,7 +1,7 @@
 // The SIMD kernels of the wide BVH: one ray against four boxes (SSE) or eight (AVX2), and against four
 // triangles at once (SSE).
-// The box kernel is a lane-wise transcription of intersect_box, with the same operations in the same
-// order and the same NaN handling; the triangle kernel is intersect_watertight's float filter, and
+// The box kernel is a lane-wise transcription of intersect_box with the same NaN handling and the
+// same result bit for bit (the far widening applied once to the minimum, which rounds the same); the triangle kernel is intersect_watertight's float filter, and
 // the lanes it cannot reject are decided by the same double-precision function as the scalar test.
 // Both give bit-identical results: SIMD changes the speed, never the answer.
 #pragma once
@@ -67,18 +67,18 @@ struct Box4Ray {
 // the scalar swaps and selections, so NaN slab distances are ignored the same way.
 inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __m128& t_entry) {
   __m128 t_near = r.tmin;
-  __m128 t_far = _mm_set1_ps(tmax);
-  const __m128 far_scale = _mm_set1_ps(kBoxFarScale);
+  __m128 t_far = _mm_set1_ps(kInfinity);  // unscaled; see intersect_box8
   for (int a = 0; a < 3; ++a) {
     const __m128 t0 =
         _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(_mm_load_ps(node.lo[a]), r.origin[a]), r.pad), r.inv_dir[a]);
     const __m128 t1 =
         _mm_mul_ps(_mm_add_ps(_mm_sub_ps(_mm_load_ps(node.hi[a]), r.origin[a]), r.pad), r.inv_dir[a]);
     const __m128 near = _mm_min_ps(t1, t0);
-    const __m128 far = _mm_mul_ps(_mm_max_ps(t0, t1), far_scale);
+    const __m128 far = _mm_max_ps(t0, t1);
     t_near = _mm_max_ps(near, t_near);
     t_far = _mm_min_ps(far, t_far);
   }
+  t_far = _mm_min_ps(_mm_mul_ps(t_far, _mm_set1_ps(kBoxFarScale)), _mm_set1_ps(tmax));
   t_entry = t_near;
   const __m128i unused = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(node.child)),
                                          _mm_set1_epi32(int(kInvalidIndex)));
@@ -107,18 +107,22 @@ struct Box8Ray {
 __attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, const Box8Ray& r, float tmax,
                                                           float t_entry[8]) {
   __m256 t_near = r.tmin;
-  __m256 t_far = _mm256_set1_ps(tmax);
-  const __m256 far_scale = _mm256_set1_ps(kBoxFarScale);
+  // The far distances' widening (kBoxFarScale) is applied once, to their minimum, instead of to each
+  // axis: x -> x * scale rounds monotonically, so min(x_i) * scale == min(x_i * scale) bit for bit, and
+  // a NaN slab distance is skipped by the min as before (t_far starts at +inf, not at a NaN). Two
+  // multiplications fewer per node.
+  __m256 t_far = _mm256_set1_ps(kInfinity);
   for (int a = 0; a < 3; ++a) {
     const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_load_ps(node.lo[a]), r.origin[a]), r.pad),
                                     r.inv_dir[a]);
     const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_load_ps(node.hi[a]), r.origin[a]), r.pad),
                                     r.inv_dir[a]);
     const __m256 near = _mm256_min_ps(t1, t0);
-    const __m256 far = _mm256_mul_ps(_mm256_max_ps(t0, t1), far_scale);
+    const __m256 far = _mm256_max_ps(t0, t1);
     t_near = _mm256_max_ps(near, t_near);
     t_far = _mm256_min_ps(far, t_far);
   }
+  t_far = _mm256_min_ps(_mm256_mul_ps(t_far, _mm256_set1_ps(kBoxFarScale)), _mm256_set1_ps(tmax));
   _mm256_storeu_ps(t_entry, t_near);
   const __m256i unused = _mm256_cmpeq_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(node.child)),
                                             _mm256_set1_epi32(int(kInvalidIndex)));
