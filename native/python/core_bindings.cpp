@@ -3,7 +3,9 @@
 #include "bindings.h"
 #include "core_arrays.h"
 
+#include "raylab/bvh.h"
 #include "raylab/mesh_io.h"
+#include "raylab/refit.h"
 #include "raylab/structure.h"
 
 #include <algorithm>
@@ -102,6 +104,20 @@ void bind_core(py::module_& m) {
            py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
       .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("threads") = py::none())
+      .def(
+          "refit",
+          [](const Structure& s, py::handle vertices) -> StructurePtr {
+            std::vector<glm::vec3> points = vertices_from_array(vertices);
+            py::gil_scoped_release release;
+            return refit_structure(s, std::move(points));
+          },
+          py::arg("vertices"))
+      .def_property_readonly("refitted", &Structure::refitted)
+      .def("sah_cost",
+           [](const Structure& s) -> py::object {
+             const auto* bvh = dynamic_cast<const Bvh*>(&s);
+             return bvh ? py::object(py::float_(bvh->sah_cost())) : py::object(py::none());
+           })
       .def("boxes", &boxes)
       .def("statuses", &statuses, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("threads") = py::none())

@@ -1,0 +1,75 @@
+#include "raylab/refit.h"
+
+#include <chrono>
+#include <stdexcept>
+#include <string>
+
+namespace raylab {
+
+MeshPtr moved_mesh(const TriangleMesh& source, std::vector<glm::vec3> vertices) {
+  if (vertices.size() != source.vertices.size())
+    throw std::invalid_argument("vertices: expected " + std::to_string(source.vertices.size()) +
+                                " rows (the mesh's vertex count: a refit keeps the triangles), got " +
+                                std::to_string(vertices.size()));
+  auto moved = std::make_shared<TriangleMesh>();
+  moved->vertices = std::move(vertices);
+  moved->triangles = source.triangles;
+  try {
+    moved->validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("vertices: ") + e.what());
+  }
+  return moved;
+}
+
+std::unique_ptr<Structure> refit_structure(const Structure& source, MeshPtr moved) {
+  if (!moved) throw std::invalid_argument("mesh is null");
+  if (moved->triangles != source.mesh().triangles || moved->vertices.size() != source.mesh().vertices.size())
+    throw std::invalid_argument("refit: the moved mesh must have the source's triangles and vertex count");
+  moved->validate();
+  const auto start = std::chrono::steady_clock::now();
+  const StructureInfo& info = structure_info(source.kind());
+  std::unique_ptr<Structure> s = info.refit ? info.refit(source, moved) : info.build(moved, source.settings());
+  s->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  s->refitted_ = info.refit != nullptr;
+  return s;
+}
+
+std::unique_ptr<Structure> refit_structure(const Structure& source, std::vector<glm::vec3> vertices) {
+  return refit_structure(source, moved_mesh(source.mesh(), std::move(vertices)));
+}
+
+bool refit_binary_bvh(BinaryBvh& bvh, std::span<const Bounds> prim_bounds) {
+  size_t taken = 0;
+  for (const Bounds& b : prim_bounds) taken += !b.empty();
+  if (taken != bvh.prims.size()) return false;
+  for (uint32_t p : bvh.prims)
+    if (p >= prim_bounds.size() || prim_bounds[p].empty()) return false;
+  // Children follow their parent (build_binary_bvh compacts depth first): one backward pass.
+  for (size_t n = bvh.nodes.size(); n-- > 0;) {
+    BvhNode& node = bvh.nodes[n];
+    Bounds b;
+    if (node.leaf()) {
+      for (uint32_t k = 0; k < node.count; ++k) b.extend(prim_bounds[bvh.prims[node.index + k]]);
+    } else {
+      b.extend(bvh.nodes[node.index].bounds());
+      b.extend(bvh.nodes[node.index + 1].bounds());
+    }
+    node.lo = b.lo;
+    node.hi = b.hi;
+  }
+  return true;
+}
+
+double sah_cost(const BinaryBvh& bvh, uint32_t leaf_block) {
+  if (bvh.nodes.empty()) return 0.0;
+  const double root = bvh.nodes[0].bounds().surface_area();
+  double sum = 0.0;
+  for (const BvhNode& node : bvh.nodes) {
+    const double weight = root > 0.0 ? node.bounds().surface_area() / root : 1.0;
+    sum += weight * (node.leaf() ? double((node.count + leaf_block - 1) / leaf_block) : double(kSahTraversalCost));
+  }
+  return sum;
+}
+
+}  // namespace raylab
