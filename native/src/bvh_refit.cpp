@@ -23,14 +23,6 @@ void set_slot(BvhWideNode<W>& node, int i, const Bounds& b) {
   }
 }
 
-template <int W>
-Bounds node_bounds(const BvhWideNode<W>& node) {
-  Bounds b;
-  for (int i = 0; i < W; ++i)
-    if (node.used(i)) b.extend(node.bounds(i));
-  return b;
-}
-
 // Rewrites the packets of the leaf in slot i of `node` from `mesh` (the same triangle ids and lane
 // layout as `source`, unused lanes repeating the packet's first triangle as the build does) and
 // returns the union of its triangles' bounds, as the build computes a leaf's box.
@@ -56,9 +48,22 @@ Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, c
   return box;
 }
 
+// Sets the inner slots of node n's subtree from their children, bottom-up (post-order from the
+// node, whatever order the build stored the nodes in); returns the node's box. The depth is the
+// tree's, bounded as Bvh::kStackSize says.
+template <int W>
+Bounds refit_inner(std::vector<BvhWideNode<W>>& nodes, uint32_t n) {
+  Bounds box;
+  for (int i = 0; i < W; ++i) {
+    if (!nodes[n].used(i)) continue;
+    if (!nodes[n].leaf(i)) set_slot(nodes[n], i, refit_inner(nodes, nodes[n].child[i]));
+    box.extend(nodes[n].bounds(i));
+  }
+  return box;
+}
+
 // Leaves first (in parallel: each slot and packet belongs to one node), then the inner slots
-// bottom-up: children follow their parent in `nodes` (the collapse is depth first), so one backward
-// pass sees every child node finished before its parent. Returns the root box.
+// bottom-up. Returns the root box.
 template <int W>
 Bounds refit_wide(const TriangleMesh& mesh, std::vector<BvhWideNode<W>>& nodes, const TrianglePacket* source,
                   TrianglePacket* packets) {
@@ -68,10 +73,7 @@ Bounds refit_wide(const TriangleMesh& mesh, std::vector<BvhWideNode<W>>& nodes, 
       for (int i = 0; i < W; ++i)
         if (nodes[n].leaf(i)) set_slot(nodes[n], i, refit_leaf(mesh, nodes[n], i, source, packets));
   });
-  for (size_t n = nodes.size(); n-- > 0;)
-    for (int i = 0; i < W; ++i)
-      if (nodes[n].used(i) && !nodes[n].leaf(i)) set_slot(nodes[n], i, node_bounds(nodes[nodes[n].child[i]]));
-  return node_bounds(nodes[0]);
+  return refit_inner(nodes, 0);
 }
 
 // sah_cost (refit.h) on a wide tree: the root node, every inner slot (a node visit) and every leaf

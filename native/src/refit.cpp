@@ -39,25 +39,33 @@ std::unique_ptr<Structure> refit_structure(const Structure& source, std::vector<
   return refit_structure(source, moved_mesh(source.mesh(), std::move(vertices)));
 }
 
+namespace {
+
+// Post-order from node n (whatever order the build stored the nodes in); the depth is the builder's,
+// below 48 + log2(n). Returns the node's new box.
+Bounds refit_subtree(BinaryBvh& bvh, std::span<const Bounds> prim_bounds, uint32_t n) {
+  Bounds b;
+  if (bvh.nodes[n].leaf()) {
+    for (uint32_t k = 0; k < bvh.nodes[n].count; ++k) b.extend(prim_bounds[bvh.prims[bvh.nodes[n].index + k]]);
+  } else {
+    const uint32_t first = bvh.nodes[n].index;
+    b.extend(refit_subtree(bvh, prim_bounds, first));
+    b.extend(refit_subtree(bvh, prim_bounds, first + 1));
+  }
+  bvh.nodes[n].lo = b.lo;
+  bvh.nodes[n].hi = b.hi;
+  return b;
+}
+
+}  // namespace
+
 bool refit_binary_bvh(BinaryBvh& bvh, std::span<const Bounds> prim_bounds) {
   size_t taken = 0;
   for (const Bounds& b : prim_bounds) taken += !b.empty();
   if (taken != bvh.prims.size()) return false;
   for (uint32_t p : bvh.prims)
     if (p >= prim_bounds.size() || prim_bounds[p].empty()) return false;
-  // Children follow their parent (build_binary_bvh compacts depth first): one backward pass.
-  for (size_t n = bvh.nodes.size(); n-- > 0;) {
-    BvhNode& node = bvh.nodes[n];
-    Bounds b;
-    if (node.leaf()) {
-      for (uint32_t k = 0; k < node.count; ++k) b.extend(prim_bounds[bvh.prims[node.index + k]]);
-    } else {
-      b.extend(bvh.nodes[node.index].bounds());
-      b.extend(bvh.nodes[node.index + 1].bounds());
-    }
-    node.lo = b.lo;
-    node.hi = b.hi;
-  }
+  if (!bvh.nodes.empty()) refit_subtree(bvh, prim_bounds, 0);
   return true;
 }
 
