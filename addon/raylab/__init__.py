@@ -3,7 +3,7 @@
 The same package is the Blender add-on (bl_info, register, unregister) and the plain-Python API
 (`import raylab` from /usr/bin/python3 with addon/ on sys.path). Nothing here imports bpy at import
 time, so the API works outside Blender. `raylab.rays` holds the ray generators of raylab's tests, for
-scripting experiments with the same rays.
+scripting experiments with the same rays; `raylab.animation` the deformations of the refit experiments.
 """
 
 bl_info = {
@@ -28,11 +28,11 @@ elif "bpy" not in sys.modules:
 
 
 def __getattr__(name):
-    """`raylab.rays` (the ray generators, numpy only) is imported on first use rather than here, so that
-    registering the add-on in Blender loads no module it does not need."""
-    if name == "rays":
+    """`raylab.rays` (the ray generators) and `raylab.animation` (numpy only) are imported on first use
+    rather than here, so that registering the add-on in Blender loads no module it does not need."""
+    if name in ("rays", "animation"):
         # import_module, not `from . import rays`: that form looks the attribute up first, back in here.
-        return importlib.import_module(".rays", __name__)
+        return importlib.import_module("." + name, __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

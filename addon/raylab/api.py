@@ -7,6 +7,7 @@
     o = s.occluded(origins, directions)              # any hit (shadow rays)
     st = s.story(origin, direction)                  # everything one ray did
     b = s.boxes()                                    # the boxes, for drawing
+    s2 = s.refit(moved_vertices)                     # the same triangles moved: boxes refitted, topology kept
     sc = raylab.Scene(structure="bvh")               # instances of shared meshes; sc.intersect(...)
     heat = raylab.heat_map(counts, maximum=100)      # false colour on a fixed scale (see heat.py)
 
@@ -22,7 +23,8 @@ from .heat import HEAT_COLOURS, heat_legend, heat_map, heat_scale_text, heat_tic
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
     "COST_PASSES", "COST_PASS_INFO", "COST_RAYS", "COST_RAYS_INFO",
-    "DEFAULTS", "RAY_STATUSES", "BuildError", "load_mesh", "build", "build_file",
+    "DEFAULTS", "SAH_CONSTANTS", "TOP_LEVEL_REFIT_LIMIT", "RAY_STATUSES", "BuildError", "load_mesh", "build",
+    "build_file",
     "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "image_size", "write_image",
     "HEAT_COLOURS", "heat_map", "heat_legend", "heat_ticks", "heat_scale_text",
 ]
@@ -41,6 +43,8 @@ COST_PASSES = tuple(COST_PASS_INFO)                            # ("raylab Rays",
 COST_RAYS_INFO = {r["name"]: r for r in _raylab.COST_RAYS}     # render settings' cost_rays: "all", "primary"
 COST_RAYS = tuple(COST_RAYS_INFO)
 DEFAULTS = dict(_raylab.BUILD_DEFAULTS)                        # structure, max_depth, leaf_size, ...
+SAH_CONSTANTS = dict(_raylab.SAH_CONSTANTS)                    # node_visit, leaf_block: Structure.sah_cost's
+TOP_LEVEL_REFIT_LIMIT = _raylab.TOP_LEVEL_REFIT_LIMIT          # a refitted top level costing more is rebuilt
 RAY_STATUSES = _raylab.RAY_STATUSES                            # a story's status, in rising priority
 BuildError = _raylab.BuildError
 
@@ -151,6 +155,32 @@ class Structure:
     max_depth = property(lambda self: self.native.max_depth)
     leaf_size = property(lambda self: self.native.leaf_size)
     triangle_test = property(lambda self: self.native.triangle_test)
+    refitted = property(lambda self: self.native.refitted,
+                        doc="made by refit() keeping its source's topology (False for a build, and for a refit "
+                            "of a kind whose refit rebuilds: STRUCTURE_INFO[name]['refits'] is False)")
+
+    def refit(self, vertices):
+        """A new Structure over the same triangles at new (V,3) vertex positions (a deforming mesh,
+        an animation frame): the boxes are recomputed bottom-up and the topology is kept, which is
+        much faster than build() but lets the tree's quality (sah_cost()) degrade as the mesh moves
+        away from the pose it was built for. The hits stay exact. Kinds whose topology depends on the
+        positions (STRUCTURE_INFO[name]["refits"] False: octree, grid) are rebuilt instead, with this
+        structure's settings; the result's `refitted` says which happened and build_seconds is the
+        refit's time. This structure is left unchanged (other threads may be tracing it).
+
+        vertices must have this mesh's vertex count (vertex_count) and finite coordinates within the
+        build's limit; otherwise ValueError naming `vertices`.
+        """
+        return Structure(self.native.refit(vertices))
+
+    def sah_cost(self):
+        """The BVH's surface area heuristic cost, what its builder minimises, normalised by the root
+        box's area: SAH_CONSTANTS["node_visit"] (a node visit, in units of testing one leaf block of
+        SAH_CONSTANTS["leaf_block"] triangles) for the root and each inner child box, plus
+        ceil(triangles / leaf_block) for each leaf, each weighted by its box's area over the root's
+        (the chance that a ray through the root enters it). Lower is a better tree; a refit's rises as
+        the mesh deforms. None for kinds other than bvh."""
+        return self.native.sah_cost()
 
     def mesh(self):
         """A copy of the mesh: ((V,3) float32, (T,3) uint32)."""
@@ -222,7 +252,8 @@ class Scene:
     """Meshes and instances of them (mesh + (4,4) row-major object-to-world matrix + material).
 
     One structure per mesh, in object space, shared by all its instances; commit() builds what is
-    missing or stale (a moved instance costs no rebuild). Queries return world-space t and the
+    missing or stale (a moved instance costs no rebuild; refit_mesh refits a deformed mesh's structure;
+    moved instances refit the top level). Queries return world-space t and the
     instance id of each hit. Any threads may change, commit and query it at once: a query sees the
     last commit() whole, except on a thread with changes of its own not committed yet (it raises).
     """
@@ -246,6 +277,13 @@ class Scene:
         """Replaces mesh `mesh` (and its normals, as add_mesh): only its own structure is rebuilt at
         the next commit()."""
         self.native.replace_mesh(mesh, vertices, triangles, normals)
+
+    def refit_mesh(self, mesh, vertices, normals=None):
+        """New (V,3) positions for mesh `mesh`'s vertices, its triangles kept (a deforming mesh): at
+        the next commit() its structure is refitted from the committed one (see Structure.refit; octree
+        and grid rebuild) instead of built anew. normals as in add_mesh (None: flat). ValueError,
+        changing nothing, unless vertices has the mesh's vertex count and finite coordinates."""
+        self.native.refit_mesh(mesh, vertices, normals)
 
     def add_instance(self, mesh, matrix, material=0):
         """Adds an instance of mesh `mesh` with a (4,4) row-major object-to-world matrix; returns its id."""
@@ -297,6 +335,13 @@ class Scene:
     instance_count = property(lambda self: self.native.instance_count)
     memory_bytes = property(lambda self: self.native.memory_bytes, doc="structures and top level, in bytes")
     build_seconds = property(lambda self: self.native.build_seconds, doc="of the last commit()")
+    top_level_update = property(
+        lambda self: self.native.top_level_update,
+        doc="what the last commit() did to the top level over the instances: 'kept' (no instance box moved), "
+            "'refitted' (the same instances moved: boxes recomputed, topology kept, while its SAH cost stays "
+            "within TOP_LEVEL_REFIT_LIMIT times its cost when built) or 'built'")
+    top_level_sah_cost = property(lambda self: self.native.top_level_sah_cost,
+                                  doc="the top level's SAH cost (as Structure.sah_cost, one instance per leaf)")
 
     def bounds(self):
         """World bounds of every instance: ((3,) lo, (3,) hi)."""

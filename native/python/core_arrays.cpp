@@ -93,8 +93,16 @@ Ray make_ray(const float* o, const float* d, size_t index, double tmin, double t
 
 }  // namespace
 
-MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles) {
+std::vector<glm::vec3> vertices_from_array(py::handle vertices) {
   FloatRows v = float_rows(vertices, "vertices", false);
+  const float* p = v.data();
+  std::vector<glm::vec3> out(size_t(v.shape(0)));
+  for (size_t i = 0; i < out.size(); ++i) out[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
+  return out;
+}
+
+MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles) {
+  std::vector<glm::vec3> points = vertices_from_array(vertices);
   py::array t = as_array(triangles, "triangles");
   if (!(t.ndim() == 2 && t.shape(1) == 3))
     throw std::invalid_argument("triangles must have shape (T, 3), got " + shape_text(t));
@@ -104,9 +112,7 @@ MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles) {
                                 std::string(py::str(t.dtype())));
 
   auto mesh = std::make_shared<TriangleMesh>();
-  const float* p = v.data();
-  mesh->vertices.resize(size_t(v.shape(0)));
-  for (size_t i = 0; i < mesh->vertices.size(); ++i) mesh->vertices[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
+  mesh->vertices = std::move(points);
   if (k == 'u') read_triangles<uint64_t>(t, mesh->triangles);
   else read_triangles<int64_t>(t, mesh->triangles);
   mesh->validate();

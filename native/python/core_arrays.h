@@ -25,6 +25,8 @@ namespace py = pybind11;
 // (V,3) real vertices and (T,3) integer triangles -> a validated mesh. Other real dtypes are
 // converted to float32; negative or out-of-range indices and non-finite coordinates raise.
 MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles);
+// (V,3) real vertices as points (converted to float32; their values are checked by whoever uses them).
+std::vector<glm::vec3> vertices_from_array(py::handle vertices);
 
 // The keywords every build takes, as any Python objects -> validated settings (a wrong type,
 // unknown name or bad value raises a ValueError naming the keyword).

@@ -4,7 +4,9 @@
 #include "core_arrays.h"
 
 #include "raylab/box_lines.h"
+#include "raylab/bvh.h"
 #include "raylab/mesh_io.h"
+#include "raylab/refit.h"
 #include "raylab/structure.h"
 
 #include <algorithm>
@@ -156,6 +158,20 @@ void bind_core(py::module_& m) {
       .def("occluded", &occluded_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("per_ray") = false,
            py::arg("threads") = py::none())
+      .def(
+          "refit",
+          [](const Structure& s, py::handle vertices) -> StructurePtr {
+            std::vector<glm::vec3> points = vertices_from_array(vertices);
+            py::gil_scoped_release release;
+            return refit_structure(s, std::move(points));
+          },
+          py::arg("vertices"))
+      .def_property_readonly("refitted", &Structure::refitted)
+      .def("sah_cost",
+           [](const Structure& s) -> py::object {
+             const auto* bvh = dynamic_cast<const Bvh*>(&s);
+             return bvh ? py::object(py::float_(bvh->sah_cost())) : py::object(py::none());
+           })
       .def("boxes", &boxes, py::arg("lines") = false, py::arg("depth_min") = 0, py::arg("depth_max") = py::none(),
            py::arg("leaves_only") = false, py::arg("palette") = py::none(), py::arg("fade") = false,
            py::arg("alpha_scale") = 1.0)

@@ -91,6 +91,19 @@ void bind_scene(py::module_& m) {
           },
           py::arg("mesh"), py::arg("vertices"), py::arg("triangles"), py::arg("normals") = py::none())
       .def(
+          "refit_mesh",
+          [](Scene& s, py::handle mesh, py::handle vertices, py::handle normals) {
+            const uint32_t m = id_parameter(mesh, s.mesh_count(), "mesh");
+            std::vector<glm::vec3> points = vertices_from_array(vertices);
+            const MeshPtr current = s.mesh(m);
+            // The normals are read against the moved mesh (the same triangles and vertex count).
+            std::vector<glm::vec3> corners;
+            if (!normals.is_none()) corners = corner_normals_from_array(*current, normals);
+            py::gil_scoped_release release;
+            s.refit_mesh(m, std::move(points), std::move(corners));
+          },
+          py::arg("mesh"), py::arg("vertices"), py::arg("normals") = py::none())
+      .def(
           "add_instance",
           [](Scene& s, py::handle mesh, py::handle matrix, py::handle material) {
             const uint32_t m = id_parameter(mesh, s.mesh_count(), "mesh");
@@ -160,6 +173,9 @@ void bind_scene(py::module_& m) {
       .def_property_readonly("instance_count", &Scene::instance_count)
       .def_property_readonly("memory_bytes", &Scene::memory_bytes)
       .def_property_readonly("build_seconds", &Scene::build_seconds)
+      .def_property_readonly("top_level_update",
+                             [](const Scene& s) { return top_level_update_name(s.top_level_update()); })
+      .def_property_readonly("top_level_sah_cost", &Scene::top_level_sah_cost)
       .def("bounds", [](const Scene& s) {
         const Bounds b = s.bounds();
         return py::make_tuple(py::array_t<float>(3, &b.lo.x), py::array_t<float>(3, &b.hi.x));

@@ -6,6 +6,8 @@
 #include "core_arrays.h"
 
 #include "raylab/cost_passes.h"
+#include "raylab/bvh_simd.h"
+#include "raylab/scene.h"
 #include "raylab/structure.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
@@ -51,6 +53,9 @@ void bind_vocabulary(py::module_& m) {
             field("description", &S::description), field("root_name", &S::root_name),
             field("uses_max_depth", &S::uses_max_depth), field("uses_leaf_size", &S::uses_leaf_size),
             field("uses_top_level", &S::uses_top_level), field("has_boxes", &S::has_boxes));
+  // Whether refit keeps the topology (else it rebuilds): StructureInfo::refit is a function, not a field.
+  for (size_t i = 0; i < structure_kinds().size(); ++i)
+    m.attr("STRUCTURES")[py::int_(i)]["refits"] = structure_kinds()[i].refit != nullptr;
   using T = TriangleTestInfo;
   m.attr("TRIANGLE_TESTS") = table(std::span<const T>(kTriangleTests), field("name", &T::name),
                                    field("label", &T::label), field("description", &T::description));
@@ -76,6 +81,13 @@ void bind_vocabulary(py::module_& m) {
   d["memory_budget"] = defaults.memory_budget;
   d["max_depth_limit"] = BuildSettings::kMaxDepthLimit;
   m.attr("BUILD_DEFAULTS") = d;
+
+  // The constants of Structure.sah_cost and of the top level's refit-or-rebuild decision.
+  py::dict sah;
+  sah["node_visit"] = kSahTraversalCost;
+  sah["leaf_block"] = std::extent_v<decltype(TrianglePacket::triangle)>;
+  m.attr("SAH_CONSTANTS") = sah;
+  m.attr("TOP_LEVEL_REFIT_LIMIT") = Scene::kTopLevelRefitLimit;
 }
 
 }  // namespace raylab::python

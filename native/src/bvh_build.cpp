@@ -27,7 +27,7 @@ constexpr uint32_t kScanGrain = 1u << 13;
 constexpr int kMaxSahDepth = 48;
 // One node visit, in units of one leaf block test. Measured on bunny_hr, dragon and a 1.3M sphere:
 // 2 beats 1 by a few percent (fuller packets, fewer nodes) and higher values change nothing more.
-constexpr float kTraversalCost = 2.0f;
+constexpr float kTraversalCost = kSahTraversalCost;
 
 // A box in SSE registers (the w lanes are unused). Binning is the builder's inner loop: one min and
 // one max per box instead of six scalar ones.

@@ -1,6 +1,7 @@
 #include "raylab/scene.h"
 
 #include "raylab/batch.h"
+#include "raylab/refit.h"
 
 #include <glm/gtc/matrix_access.hpp>
 #include <tbb/parallel_for.h>
@@ -59,6 +60,7 @@ struct Scene::Impl {
     std::vector<SceneInstance> instances;
     uint64_t generation = 0;      // changes so far
     uint64_t top_generation = 0;  // of the last change to an instance's world box
+    uint64_t instances_generation = 0;  // of the last change to the set of instances
   };
   // A thread whose changes the published snapshot does not include yet, and its last change.
   struct Editor {
@@ -91,10 +93,12 @@ struct Scene::Impl {
   const SceneInstance& instance_slot(uint32_t i) const { return const_cast<Impl*>(this)->instance_slot(i); }
 
   // Counts one change by the calling thread (with `mutex` held); `moves_boxes` when it changes an
-  // instance's world box, so that the top level is rebuilt.
-  void changed(bool moves_boxes) {
+  // instance's world box, so that the top level is refitted, `changes_instances` when it adds or
+  // drops instances, so that it is rebuilt.
+  void changed(bool moves_boxes, bool changes_instances = false) {
     const uint64_t generation = ++edited.generation;
-    if (moves_boxes) edited.top_generation = generation;
+    if (moves_boxes || changes_instances) edited.top_generation = generation;
+    if (changes_instances) edited.instances_generation = generation;
     const std::thread::id self = std::this_thread::get_id();
     for (Editor& e : editors)
       if (e.thread == self) {
@@ -139,6 +143,22 @@ void Scene::replace_mesh(uint32_t mesh, MeshPtr replacement, std::vector<glm::ve
   impl_->changed(true);  // its instances' world boxes changed
 }
 
+void Scene::refit_mesh(uint32_t mesh, std::vector<glm::vec3> vertices, std::vector<glm::vec3> corner_normals) {
+  const MeshPtr current = this->mesh(mesh);  // checks the id
+  MeshPtr moved = moved_mesh(*current, std::move(vertices));
+  const Bounds bounds = moved->bounds();
+  auto normals = shared_normals(*moved, std::move(corner_normals));
+  std::lock_guard lock(impl_->mutex);
+  SceneMesh& slot = impl_->mesh_slot(mesh);
+  if (slot.mesh != current)
+    throw std::invalid_argument("refit_mesh: mesh " + std::to_string(mesh) + " was replaced while its vertices were checked");
+  // Not committed since the last refit: refit from the structure that one would have refitted
+  // (the triangles are the same). Stale for another reason (new mesh, new settings): a build.
+  std::shared_ptr<const Structure> source = slot.structure ? slot.structure : slot.refit_source;
+  slot = {std::move(moved), bounds, nullptr, std::move(normals), std::move(source)};
+  impl_->changed(true);  // its instances' world boxes changed
+}
+
 void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec3> corner_normals) {
   const size_t expected = 3 * mesh.triangles.size();
   if (corner_normals.size() != expected)
@@ -171,7 +191,7 @@ uint32_t Scene::add_instance(uint32_t mesh, const glm::mat4& transform, uint32_t
   impl_->mesh_slot(mesh);
   const glm::mat4 inverse = checked_inverse(transform);
   impl_->edited.instances.push_back({Instance{mesh, transform, material}, inverse});
-  impl_->changed(true);
+  impl_->changed(true, true);
   return uint32_t(impl_->edited.instances.size() - 1);
 }
 
@@ -187,14 +207,17 @@ void Scene::set_transform(uint32_t instance, const glm::mat4& transform) {
 void Scene::clear_instances() {
   std::lock_guard lock(impl_->mutex);
   impl_->edited.instances.clear();
-  impl_->changed(true);
+  impl_->changed(true, true);
 }
 
 void Scene::set_settings(const BuildSettings& settings) {
   settings.validate();
   std::lock_guard lock(impl_->mutex);
   impl_->edited.settings = settings;
-  for (SceneMesh& m : impl_->edited.meshes) m.structure.reset();
+  for (SceneMesh& m : impl_->edited.meshes) {
+    m.structure.reset();
+    m.refit_source.reset();  // a refit keeps its source's settings
+  }
   impl_->changed(true);
   impl_->edited.settings_generation = impl_->edited.generation;
 }
@@ -214,24 +237,47 @@ void Scene::commit() {
   // otherwise leave cores idle.
   tbb::parallel_for(size_t(0), state.meshes.size(), [&](size_t i) {
     SceneMesh& m = state.meshes[i];
-    if (!m.structure) m.structure = build_structure(m.mesh, state.settings);
+    if (!m.structure)
+      m.structure = m.refit_source ? refit_structure(*m.refit_source, m.mesh) : build_structure(m.mesh, state.settings);
+    m.refit_source.reset();  // the snapshot does not keep the old structure alive
   });
   std::shared_ptr<const BinaryBvh> top;
+  TopLevelUpdate update = TopLevelUpdate::Built;
+  double built_cost = 0.0;
   if (previous && state.top_generation <= previous->generation()) {
     top = previous->top_;
+    update = TopLevelUpdate::Kept;
+    built_cost = previous->top_built_sah_cost_;
   } else {
     std::vector<Bounds> world_bounds(state.instances.size());
     for (size_t i = 0; i < state.instances.size(); ++i) {
       const SceneInstance& inst = state.instances[i];
       world_bounds[i] = transform_bounds(state.meshes[inst.instance.mesh].bounds, inst.instance.transform);
     }
-    // One instance per leaf: entering an instance costs a whole structure query.
-    top = std::make_shared<const BinaryBvh>(build_binary_bvh(world_bounds, 1));
+    // The same instances, only their boxes moved: refit the last top level, unless that degrades it
+    // past kTopLevelRefitLimit (the last snapshot is never changed: the refit is a copy).
+    if (previous && state.instances_generation <= previous->generation()) {
+      auto refitted = std::make_shared<BinaryBvh>(*previous->top_);
+      if (refit_binary_bvh(*refitted, world_bounds) &&
+          sah_cost(*refitted, 1) <= kTopLevelRefitLimit * previous->top_built_sah_cost_) {
+        top = std::move(refitted);
+        update = TopLevelUpdate::Refitted;
+        built_cost = previous->top_built_sah_cost_;
+      }
+    }
+    if (!top) {
+      // One instance per leaf: entering an instance costs a whole structure query.
+      top = std::make_shared<const BinaryBvh>(build_binary_bvh(world_bounds, 1));
+      built_cost = sah_cost(*top, 1);
+    }
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const uint64_t generation = state.generation;
-  auto snapshot = std::make_shared<const SceneSnapshot>(state.settings, std::move(state.meshes),
-                                                        std::move(state.instances), std::move(top), generation, seconds);
+  auto made = std::make_shared<SceneSnapshot>(state.settings, std::move(state.meshes), std::move(state.instances),
+                                              std::move(top), generation, seconds);
+  made->top_update_ = update;
+  made->top_built_sah_cost_ = built_cost;
+  SceneSnapshotPtr snapshot = std::move(made);
 
   std::lock_guard lock(impl_->mutex);
   // The new structures stay for later commits, unless their mesh or the settings changed meanwhile.
@@ -239,7 +285,10 @@ void Scene::commit() {
   if (edited.settings_generation == state.settings_generation)
     for (uint32_t m = 0; m < snapshot->mesh_count(); ++m) {
       SceneMesh& slot = edited.meshes[m];
-      if (!slot.structure && slot.mesh == snapshot->meshes_[m].mesh) slot.structure = snapshot->meshes_[m].structure;
+      if (!slot.structure && slot.mesh == snapshot->meshes_[m].mesh) {
+        slot.structure = snapshot->meshes_[m].structure;
+        slot.refit_source.reset();
+      }
     }
   impl_->committed = std::move(snapshot);
   std::erase_if(impl_->editors, [&](const Impl::Editor& e) { return e.generation <= generation; });
@@ -306,6 +355,16 @@ size_t Scene::memory_bytes() const {
 double Scene::build_seconds() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->committed ? impl_->committed->build_seconds() : 0.0;
+}
+
+TopLevelUpdate Scene::top_level_update() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->committed ? impl_->committed->top_level_update() : TopLevelUpdate::Built;
+}
+
+double Scene::top_level_sah_cost() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->committed ? impl_->committed->top_level_sah_cost() : 0.0;
 }
 
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,

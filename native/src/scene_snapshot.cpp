@@ -3,6 +3,7 @@
 #include "raylab/batch.h"
 #include "raylab/box_intersection.h"
 #include "raylab/bvh.h"
+#include "raylab/refit.h"
 
 #include <algorithm>
 #include <stdexcept>
@@ -266,6 +267,8 @@ Bounds SceneSnapshot::bounds() const {
     b.extend(transform_bounds(meshes_[inst.instance.mesh].bounds, inst.instance.transform));
   return b;
 }
+
+double SceneSnapshot::top_level_sah_cost() const { return sah_cost(*top_, 1); }
 
 size_t SceneSnapshot::memory_bytes() const {
   size_t bytes = top_->nodes.capacity() * sizeof(BvhNode) + top_->prims.capacity() * sizeof(uint32_t);

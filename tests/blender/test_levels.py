@@ -351,3 +351,26 @@ def test_mesh_swap_takes_the_mesh_with_its_modifiers():
     finally:
         bpy.data.objects.remove(monkey)
         bpy.data.scenes.remove(user_scene)
+
+
+def test_race_animation_tasks_tick_with_a_wave_then_rebuild():
+    """The race's last tasks: a Wave modifier on the level's mesh with the boxes shown (the BVH then
+    refits every frame), then On animation set to Rebuild."""
+    from raylab.blender import structure_cache
+    scene = levels.open_level(bpy.context, "race")
+    st = levels.state(scene)
+    st["done"] = [1, 1, 1, 0, 0]  # the comparison tasks, done (test_race_ticks... does the first)
+    obj = levels.level_mesh_object(scene)
+    scene.raylab.show = True
+    assert tick(scene) == [True, True, True, False, False]  # no modifier yet: nothing deforms
+    obj.modifiers.new("Wave", 'WAVE').height = 0.2
+    assert tick(scene) == [True, True, True, True, False]
+    refits = structure_cache.stats["structure_refits"]
+    structure_cache.structure_for(obj, scene.raylab)
+    scene.frame_set(scene.frame_current + 5)
+    entry = structure_cache.structure_for(obj, scene.raylab)
+    assert entry.structure.refitted and structure_cache.stats["structure_refits"] == refits + 1
+    scene.raylab.animation_update = 'REBUILD'
+    assert tick(scene) == [True] * 5
+    scene.frame_set(scene.frame_current + 5)
+    assert not structure_cache.structure_for(obj, scene.raylab).structure.refitted

@@ -29,6 +29,7 @@ def monkey_scene():
     settings.objects, settings.depth_min, settings.depth_max = 'ALL', 0, 64
     settings.leaves_only = settings.color_by_depth = settings.spin = False
     settings.fade = True
+    settings.animation_update = 'REFIT'
     bpy.context.view_layer.update()
     return scene, monkey
 
@@ -79,11 +80,23 @@ def test_moving_the_object_rebuilds_nothing(monkey_scene, structure):
     assert structure_cache.stats["structure_builds"] == builds[0]["structure_builds"]
     assert overlay.stats["batch_builds"] == builds[1]["batch_builds"] + 1
 
-    monkey.data.vertices[0].co.z += 0.5  # a geometry change: the structure is rebuilt
+    # A geometry change with the same triangles (a scale keeps how Blender splits each quad): the
+    # BVH's structure is refitted (animation_update 'REFIT', the default), the octree's rebuilt (its
+    # cells depend on the positions).
+    monkey.data.transform(Matrix.Scale(1.25, 4))
     monkey.data.update()
     bpy.context.view_layer.update()
     overlay.line_geometry(monkey, scene)
-    assert structure_cache.stats["structure_builds"] == builds[0]["structure_builds"] + 1
+    refits = raylab.STRUCTURE_INFO[structure]["refits"]
+    assert structure_cache.stats["structure_builds"] == builds[0]["structure_builds"] + (not refits)
+    assert structure_cache.stats["structure_refits"] == builds[0]["structure_refits"] + refits
+
+    scene.raylab.animation_update = 'REBUILD'  # another geometry change, rebuilt whatever the kind
+    monkey.data.transform(Matrix.Scale(0.8, 4))
+    monkey.data.update()
+    bpy.context.view_layer.update()
+    overlay.line_geometry(monkey, scene)
+    assert structure_cache.stats["structure_builds"] == builds[0]["structure_builds"] + 1 + (not refits)
 
 
 def test_filters_pick_depths_and_leaves(monkey_scene):

@@ -7,6 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include <memory>
 #include <random>
 #include <string>
@@ -50,6 +53,28 @@ inline std::vector<Ray> random_rays(const TriangleMesh& mesh, size_t count, uint
                               : glm::vec3(signed_unit(rng), signed_unit(rng), signed_unit(rng));
   }
   return rays;
+}
+
+// Frame f (of `frames`) of an animation of `rest` for the refit tests: a twist about z and a wave along x that grow with f, and
+// three frames that stress the refit: f = 8 flattens the mesh onto z = 0 (coplanar overlaps, many
+// triangles degenerate to segments), f = 12 collapses the vertices with x above the centre onto one
+// point (degenerate triangles), f = 16 mirrors x (every triangle flips its winding).
+inline std::vector<glm::vec3> animated_vertices(const TriangleMesh& rest, int f, int frames) {
+  const Bounds b = rest.bounds();
+  const glm::vec3 c = b.center(), e = b.extent();
+  const float size = std::max({e.x, e.y, e.z});
+  std::vector<glm::vec3> out(rest.vertices.size());
+  for (size_t i = 0; i < out.size(); ++i) {
+    glm::vec3 p = rest.vertices[i] - c;
+    const float angle = 1.5f * float(f) / float(frames) * (p.z / size);
+    p = {p.x * std::cos(angle) - p.y * std::sin(angle), p.x * std::sin(angle) + p.y * std::cos(angle), p.z};
+    p.y += 0.1f * size * std::sin(6.0f * p.x / size + 0.5f * float(f));
+    if (f == 8) p.z = 0.0f;
+    if (f == 12 && p.x > 0.0f) p = {0.25f * size, 0.0f, 0.0f};
+    if (f == 16) p.x = -p.x;
+    out[i] = p + c;
+  }
+  return out;
 }
 
 // Sutherland–Hodgman: the part of the triangle inside the box grown by `grow`, in double. Independent

@@ -163,11 +163,44 @@ def chart_self_hits(results, path):
     plt.close(fig)
 
 
+def chart_animation(results, path):
+    """Per frame of the animation: build or refit time against trace time, and the SAH cost of both trees."""
+    anim = results["animation"]
+    rows = anim["rows"]
+    frames = [r["frame"] for r in rows]
+    ms = lambda key: [1e3 * r[key] for r in rows]  # noqa: E731
+    fig, (times, sah) = plt.subplots(1, 2, figsize=(11, 4.5))
+    times.plot(frames, ms("rebuild_seconds"), "o-", color="C0", ms=3, label="rebuild")
+    times.plot(frames, ms("refit_seconds"), "o-", color="C1", ms=3, label="refit")
+    times.plot(frames, ms("rebuilt_trace_seconds"), "--", color="C0", label="trace after rebuild")
+    times.plot(frames, ms("refitted_trace_seconds"), "--", color="C1", label="trace after refit")
+    times.set_yscale("log")
+    times.set_xlabel("frame")
+    times.set_ylabel("milliseconds (median)")
+    times.set_title(f"{anim['mesh']} ({anim['triangles']:,} triangles), {anim['rays']:,} rays on one thread",
+                    fontsize=9)
+    times.grid(which="both", alpha=0.3)
+    times.legend(fontsize=8)
+    sah.plot(frames, [r["rebuilt_sah_cost"] for r in rows], "o-", color="C0", ms=3, label="rebuilt BVH")
+    sah.plot(frames, [r["refitted_sah_cost"] for r in rows], "o-", color="C1", ms=3, label="refitted BVH")
+    sah.set_xlabel("frame")
+    sah.set_ylabel("SAH cost (normalised by the root's area)")
+    sah.set_title("Tree quality: the refitted tree degrades as the mesh moves away from frame 0", fontsize=9)
+    sah.grid(alpha=0.3)
+    sah.legend(fontsize=8)
+    fig.suptitle("An animation (twist and wave): refit the BVH or rebuild it every frame")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def write_charts(results, out):
     charts = {"bench_throughput.png": chart_throughput, "bench_embree_ratio.png": chart_ratios,
               "bench_thesis.png": chart_thesis, "bench_leaks.png": chart_leaks, "bench_self_hits.png": chart_self_hits}
     if results["thesis"].get("image_error"):
         charts["bench_speed_accuracy.png"] = chart_speed_accuracy
+    if results.get("animation"):
+        charts["bench_animation.png"] = chart_animation
     for name, draw in charts.items():
         draw(results, out / name)
     return sorted(charts)

@@ -248,3 +248,69 @@ def run_self_hits(config):
                              fraction=float((darker & lit).sum() / max(1, lit.sum()))))
         log(f"self-hits at scale {scale:g} done")
     return {"rows": rows, "mesh": "sphere.obj", "light": "sun"}
+
+
+# ---------------------------------------------------------------- an animation: refit against rebuild
+
+def _median_seconds(run, reps):
+    seconds = []
+    for _ in range(reps):
+        start = time.perf_counter()
+        run()
+        seconds.append(time.perf_counter() - start)
+    return statistics.median(seconds)
+
+
+def run_animation(config):
+    """A shipped mesh twisted and waved over the frames (raylab.animation.twist_wave). Each frame the
+    BVH is rebuilt from scratch and, separately, refitted from the previous frame's refit (as an
+    animation plays, starting from frame 0's build); both trace the same rays (a fixed camera framing
+    the rest pose, and random rays) on one thread. Per frame: build and refit seconds (the core's own
+    timers, medians of the repetitions), trace seconds after each, the SAH cost of both trees, and
+    whether their hits agree (they must: a refit is exact)."""
+    from raylab import animation, rays
+
+    cfg = config["animation"]
+    V, T = raylab.load_mesh(MESH_DIR / f"{cfg['mesh']}.obj")
+    frames, reps = cfg["frames"], cfg["reps"]
+    camera = rays.camera_rays(V, cfg["camera"])
+    rng = np.random.default_rng(1)
+    random = rays.random_rays(V, cfg["random_rays"], rng)
+    origins, directions = np.concatenate([camera[0], random[0]]), np.concatenate([camera[1], random[1]])
+    refitted = None
+    rows = []
+    for frame in range(frames):
+        moved = animation.twist_wave(V, frame, frames)
+        builds = [raylab.build(moved, T) for _ in range(reps)]
+        rebuilt = builds[-1]
+        if refitted is None:
+            refitted = rebuilt  # frame 0: the animation starts from a build
+            refit_seconds = statistics.median(b.build_seconds for b in builds)
+        else:
+            source = refitted
+            refits = [source.refit(moved) for _ in range(reps)]
+            refitted = refits[-1]
+            refit_seconds = statistics.median(r.build_seconds for r in refits)
+        hits = [s.intersect(origins, directions, threads=1) for s in (rebuilt, refitted)]
+        same = all(np.array_equal(getattr(hits[0], f), getattr(hits[1], f)) for f in ("hit", "triangle", "t", "u", "v"))
+        # Interleaved, so that the machine's drift falls on both alike.
+        seconds = ([], [])
+        for _ in range(reps):
+            for s, out in zip((rebuilt, refitted), seconds):
+                out.append(_median_seconds(lambda: s.intersect(origins, directions, threads=1), 1))
+        rows.append(dict(frame=frame, rebuild_seconds=statistics.median(b.build_seconds for b in builds),
+                         refit_seconds=refit_seconds, rebuilt_trace_seconds=statistics.median(seconds[0]),
+                         refitted_trace_seconds=statistics.median(seconds[1]), rebuilt_sah_cost=rebuilt.sah_cost(),
+                         refitted_sah_cost=refitted.sah_cost(), same_hits=same))
+    log(f"animation of {cfg['mesh']} over {frames} frames done")
+    later = rows[1:]  # frame 0 is a build for both
+    median = lambda key: statistics.median(r[key] for r in later)  # noqa: E731
+    summary = dict(
+        rebuild_seconds_median=median("rebuild_seconds"), refit_seconds_median=median("refit_seconds"),
+        refit_speedup_median=statistics.median(r["rebuild_seconds"] / r["refit_seconds"] for r in later),
+        trace_ratio_median=statistics.median(r["refitted_trace_seconds"] / r["rebuilt_trace_seconds"] for r in later),
+        trace_ratio_last=rows[-1]["refitted_trace_seconds"] / rows[-1]["rebuilt_trace_seconds"],
+        sah_ratio_last=rows[-1]["refitted_sah_cost"] / rows[-1]["rebuilt_sah_cost"],
+        all_hits_equal=all(r["same_hits"] for r in rows))
+    return {"mesh": cfg["mesh"], "triangles": len(T), "frames": frames, "rays": len(origins),
+            "animation": "raylab.animation.twist_wave", "rows": rows, "summary": summary}

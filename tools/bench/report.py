@@ -44,6 +44,26 @@ def disagreement_examples(results):
     return lines + [""]
 
 
+def animation_markdown(anim):
+    """The refit-against-rebuild section: its summary and one row per frame."""
+    s = anim["summary"]
+    lines = ["## An animation: refit the BVH or rebuild it", "",
+             f"{anim['mesh']} ({anim['triangles']:,} triangles) deformed by `{anim['animation']}` over "
+             f"{anim['frames']} frames; {anim['rays']:,} rays (camera and random) traced on one thread after each. "
+             f"Over frames 1-{anim['frames'] - 1}: rebuild {1e3 * s['rebuild_seconds_median']:.2f} ms and refit "
+             f"{1e3 * s['refit_seconds_median']:.2f} ms (medians; refit {s['refit_speedup_median']:.1f}x faster); "
+             f"the trace after a refit takes {s['trace_ratio_median']:.2f}x the trace after a rebuild (median), "
+             f"{s['trace_ratio_last']:.2f}x at the last frame, where the refitted tree's SAH cost is "
+             f"{s['sah_ratio_last']:.2f}x the rebuilt one's. Hits equal on every frame: {s['all_hits_equal']}.", "",
+             "| frame | rebuild ms | refit ms | trace ms after rebuild | after refit | SAH rebuilt | SAH refitted |",
+             "|---|---|---|---|---|---|---|"]
+    for r in anim["rows"]:
+        lines.append(f"| {r['frame']} | {1e3 * r['rebuild_seconds']:.2f} | {1e3 * r['refit_seconds']:.2f} | "
+                     f"{1e3 * r['rebuilt_trace_seconds']:.2f} | {1e3 * r['refitted_trace_seconds']:.2f} | "
+                     f"{r['rebuilt_sah_cost']:.2f} | {r['refitted_sah_cost']:.2f} |")
+    return lines + [""]
+
+
 def markdown(results):
     lines = ["# raylab benchmark", "",
              f"{results['machine']['date']}, {results['machine']['hardware_threads']} hardware threads, "
@@ -150,6 +170,8 @@ def markdown(results):
     for scale in dict.fromkeys(r["scale"] for r in sh["rows"]):
         cells = [next(r for r in sh["rows"] if r["scale"] == scale and r["method"] == m) for m in methods]
         lines.append(f"| {scale:g} | " + " | ".join(f"{c['false_self_hits']} ({100 * c['fraction']:.1f}%)" for c in cells) + " |")
+    if results.get("animation"):
+        lines += [""] + animation_markdown(results["animation"])
     lines += ["", "Charts: " + ", ".join(f"`{c}`" for c in results["charts"]), ""]
     return "\n".join(lines)
 
@@ -158,7 +180,7 @@ def markdown(results):
 # levels), and the README embeds them from there; the full table goes to docs/bench/results.md.
 PUBLISHED = {"bench_throughput.png": "race", "bench_embree_ratio.png": "race", "bench_thesis.png": "race",
              "bench_speed_accuracy.png": "race", "bench_leaks.png": "where_methods_fail",
-             "bench_self_hits.png": "where_methods_fail"}
+             "bench_self_hits.png": "where_methods_fail", "bench_animation.png": "race"}
 
 
 def publish(results, out):

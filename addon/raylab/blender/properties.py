@@ -111,6 +111,12 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     max_depth_auto: BoolProperty(name="Auto depth", default=False, update=_redraw, description=AUTO_DEPTH_DESCRIPTION)
     leaf_size: IntProperty(name="Leaf size", min=1, max=64, default=api.DEFAULTS["leaf_size"], update=_redraw,
                            description="Triangles a node may hold before it splits (octree) / per leaf (BVH)")
+    animation_update: EnumProperty(name="On animation", default="REFIT", update=_redraw, items=[
+        ("REFIT", "Refit", "Keep the structure's tree and recompute its boxes: fast, but the tree degrades "
+                           "(octree and grid rebuild anyway)"),
+        ("REBUILD", "Rebuild", "Build the structure anew from the moved mesh: slower, the best tree every frame"),
+    ], description="What the structure of a deforming mesh (armature, modifiers, shape keys) does when its "
+                   "geometry changes, e.g. on each frame of an animation")
     # Off in a user's own files (the Preferences can turn it on there); every level turns it on itself.
     show: BoolProperty(name="Show boxes", default=False, update=_redraw,
                        description="Draw the structure's boxes over the meshes")

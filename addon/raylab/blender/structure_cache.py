@@ -3,9 +3,12 @@ and its fan trace, with the renderer's geometry model (one mesh per object, one 
 the object's matrix_world, a top level over the instances where the structure has one).
 
 The scene is kept between redraws and changed only where Blender changed: a new transform moves an
-instance (no rebuild), a geometry change replaces that object's mesh (its structure alone is rebuilt),
-other build settings start a new scene. The mesh is re-read and re-hashed only after the depsgraph
-reported a geometry change. One exception to the object-space model: 'aabb' is VRT's box, axis-aligned
+instance (no rebuild; the top level is refitted), a geometry change replaces that object's mesh (its
+structure alone is rebuilt), other build settings start a new scene. A deforming mesh (armature, Wave
+modifier, shape keys: the same triangles, moved vertices) has its structure refitted instead when
+scene.raylab.animation_update is 'REFIT' (raylab.Scene.refit_mesh). The mesh is re-read and re-hashed
+only after the depsgraph reported a geometry change, or on a frame change for objects whose geometry may
+be animated (frame_change_post: playback reports no depsgraph update). One exception to the object-space model: 'aabb' is VRT's box, axis-aligned
 in the WORLD, so its mesh is the object's world-space vertices under an identity instance and is
 replaced when the object moves; the drawn box is then the world AABB and the probe tests that box.
 """
@@ -21,7 +24,7 @@ from .mesh_data import mesh_triangles, mesh_vertices
 
 WORLD_ALIGNED = "aabb"  # the one structure kept in world space (see above)
 
-stats = {"structure_builds": 0, "mesh_reads": 0}
+stats = {"structure_builds": 0, "structure_refits": 0, "mesh_reads": 0}
 
 _meshes = {}   # object name -> _Mesh
 _dirty = set()  # object names whose evaluated geometry changed since it was read
@@ -29,12 +32,15 @@ _models = {}   # Blender scene name -> SceneModel
 
 
 class _Mesh:
-    __slots__ = ("vertices", "triangles", "digest")
+    __slots__ = ("vertices", "triangles", "digest", "topology")
 
     def __init__(self, vertices, triangles):
         self.vertices = vertices
         self.triangles = triangles
         self.digest = hashlib.blake2b(vertices.tobytes() + triangles.tobytes(), digest_size=16).digest()
+        # What a refit keeps: the triangles and the vertex count.
+        self.topology = hashlib.blake2b(triangles.tobytes() + len(vertices).to_bytes(8, "little"),
+                                        digest_size=16).digest()
 
 
 class Entry:
@@ -63,12 +69,13 @@ class _Part:
     """An object's mesh in the raylab.Scene: its mesh id, the key it was added with, why it is not
     traced (its mesh, or its instance's matrix), its entry."""
 
-    __slots__ = ("mesh", "key", "triangle_count", "error", "instance_error", "entry")
+    __slots__ = ("mesh", "key", "triangle_count", "topology", "error", "instance_error", "entry")
 
-    def __init__(self, mesh, key, triangle_count, error=None):
+    def __init__(self, mesh, key, triangle_count, topology=None, error=None):
         self.mesh = mesh
         self.key = key
         self.triangle_count = triangle_count
+        self.topology = topology    # _Mesh.topology of the mesh in the scene (None: none there)
         self.error = error          # the mesh cannot be added (no faces, a NaN vertex)
         self.instance_error = None  # the scene refused its matrix (e.g. scaled to zero)
         self.entry = None
@@ -87,6 +94,7 @@ class SceneModel:
         self.shown = ([], [])  # the object names and matrix bytes last asked for
         self.instances = []   # instance id -> object name
         self.stale = 0        # meshes added or replaced since the last commit
+        self.refits = 0       # meshes refitted since the last commit
         self.error = None     # why the last commit failed
         self.committed = False
         self.generation = 0   # commits so far: what the probe's cache key reads
@@ -110,33 +118,43 @@ class SceneModel:
             part.entry = Entry(part.key, structure, 'WORLD' if self.world else 'OBJECT', error)
         return part.entry
 
-    def _update_part(self, obj, mesh, matrix):
-        """Adds or replaces the object's mesh if it changed; True if it did."""
+    def _update_part(self, obj, mesh, matrix, refit):
+        """Adds, replaces or (`refit`, the same triangles moved) refits the object's mesh if it changed;
+        True if it did."""
         name = obj.name_full
         key = (mesh.digest, self.settings_key, matrix.tobytes() if self.world else None)
         part = self.parts.get(name)
         if part is not None and part.key == key:
             return False
-        new = self._new_part(part.mesh if part else None, mesh, matrix, key)
+        # Only kinds that keep a topology refit (the core would rebuild the others: count them as builds).
+        refit = (refit and api.STRUCTURE_INFO[self.settings_key[0]]["refits"] and part is not None
+                 and part.error is None and part.topology == mesh.topology)
+        new = self._new_part(part.mesh if part else None, mesh, matrix, key, refit)
         if part is not None:  # a refused instance stays refused until its matrix changes
             new.instance_error = part.instance_error
         self.parts[name] = new
         return True
 
-    def _new_part(self, mesh_id, mesh, matrix, key):
-        """The object's mesh added to the scene (or replacing mesh `mesh_id`), or why it cannot be."""
+    def _new_part(self, mesh_id, mesh, matrix, key, refit=False):
+        """The object's mesh added to the scene (or replacing or refitting mesh `mesh_id`), or why it
+        cannot be."""
         if len(mesh.triangles) == 0:
-            return _Part(mesh_id, key, 0, "the mesh has no faces")
+            return _Part(mesh_id, key, 0, error="the mesh has no faces")
         vertices = transform_points(matrix, mesh.vertices).astype(np.float32) if self.world else mesh.vertices
         try:
             if mesh_id is None:
                 mesh_id = self.scene.add_mesh(vertices, mesh.triangles)
+            elif refit:
+                self.scene.refit_mesh(mesh_id, vertices)
             else:
                 self.scene.replace_mesh(mesh_id, vertices, mesh.triangles)
         except ValueError as error:  # e.g. a NaN vertex
-            return _Part(mesh_id, key, 0, str(error))
-        self.stale += 1
-        return _Part(mesh_id, key, len(mesh.triangles))
+            return _Part(mesh_id, key, 0, error=str(error))
+        if refit:
+            self.refits += 1
+        else:
+            self.stale += 1
+        return _Part(mesh_id, key, len(mesh.triangles), mesh.topology)
 
     def _set_instances(self, names, matrices):
         """Instances for the objects `names` with (4,4) `matrices`: moved where only matrices changed,
@@ -167,12 +185,14 @@ class SceneModel:
             self.instances.append(name)
         return True
 
-    def update(self, targets, depsgraph):
+    def update(self, targets, depsgraph, refit=True):
+        """Brings the scene up to date with the objects `targets`; `refit`: a deformed mesh's structure
+        is refitted (else rebuilt)."""
         changed = False
         names, matrices = [], []
         for obj in targets:
             matrix = matrix_of(obj)
-            changed |= self._update_part(obj, _mesh_of(obj, depsgraph), matrix)
+            changed |= self._update_part(obj, _mesh_of(obj, depsgraph), matrix, refit)
             if self.parts[obj.name_full].error is None:
                 names.append(obj.name_full)
                 matrices.append(np.identity(4) if self.world else matrix)
@@ -191,7 +211,8 @@ class SceneModel:
             self.committed = False
             return
         stats["structure_builds"] += self.stale
-        self.stale = 0
+        stats["structure_refits"] += self.refits
+        self.stale = self.refits = 0
         self.error = None
         self.committed = True
 
@@ -260,7 +281,7 @@ def scene_model(scene, depsgraph=None):
     # New settings rebuild every structure anyway; objects long gone would keep their meshes.
     if model is None or model.settings_key != key or len(model.parts) > 2 * len(targets) + 16:
         model = _models[scene.name_full] = SceneModel(key, settings)
-    model.update(targets, depsgraph)
+    model.update(targets, depsgraph, refit=settings.animation_update == 'REFIT')
     return model
 
 
@@ -292,6 +313,21 @@ def mark_geometry_changed(depsgraph):
             _dirty.update(o.name_full for o in bpy.data.objects if o.data == changed)
 
 
+def may_deform(obj):
+    """Whether the evaluated geometry of mesh object `obj` may change from frame to frame: modifiers
+    (an Armature, a Wave), shape keys, an armature parent."""
+    return obj.type == 'MESH' and (len(obj.modifiers) > 0 or obj.data.shape_keys is not None
+                                   or obj.parent_type == 'ARMATURE')
+
+
+def mark_frame_changed(scene, depsgraph):
+    """On a frame change: every object whose geometry may be animated is re-read (an unchanged mesh
+    hashes the same and changes nothing), as are those the depsgraph reports."""
+    _dirty.update(o.name_full for o in scene.objects if may_deform(o))
+    if depsgraph is not None:
+        mark_geometry_changed(depsgraph)
+
+
 def clear():
     _meshes.clear()
     _dirty.clear()
@@ -304,16 +340,23 @@ def _on_depsgraph_update(scene, depsgraph):
 
 
 @bpy.app.handlers.persistent
+def _on_frame_change(scene, depsgraph=None):
+    mark_frame_changed(scene, depsgraph)
+
+
+@bpy.app.handlers.persistent
 def _on_load(_):
     clear()
 
 
 def register():
     bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph_update)
+    bpy.app.handlers.frame_change_post.append(_on_frame_change)
     bpy.app.handlers.load_post.append(_on_load)
 
 
 def unregister():
     bpy.app.handlers.depsgraph_update_post.remove(_on_depsgraph_update)
+    bpy.app.handlers.frame_change_post.remove(_on_frame_change)
     bpy.app.handlers.load_post.remove(_on_load)
     clear()

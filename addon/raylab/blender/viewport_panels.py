@@ -35,6 +35,7 @@ class RAYLAB_PT_structure(_RaylabPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         draw_structure_settings(layout, settings)
+        layout.prop(settings, "animation_update")
         layout.prop(settings, "objects")
         row = layout.row()
         row.active = not settings.color_by_depth

@@ -33,6 +33,13 @@ class Bvh final : public StructureBase<Bvh> {
   // width: 8 (AVX2), 4 (SSE) or 0 for the widest this CPU runs; RAYLAB_BVH_WIDTH=4 in the environment
   // makes 0 mean 4 (to measure or test the SSE path on an AVX2 machine). 8 without AVX2 is an error.
   Bvh(MeshPtr mesh, const BuildSettings& settings, int width = 0);
+  // Refit (bvh_refit.cpp): `source`'s nodes and leaves over `moved`, the same triangles at new
+  // positions; every box is recomputed bottom-up, the packets from the new vertices, the width kept.
+  Bvh(const Bvh& source, MeshPtr moved);
+
+  // The tree's SAH cost (bvh_refit.cpp): what the builder minimises, on the wide tree the traversal
+  // walks, normalised by the root box's area.
+  double sah_cost() const;
 
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
@@ -310,5 +317,7 @@ class Bvh final : public StructureBase<Bvh> {
 };
 
 std::unique_ptr<Structure> build_bvh(MeshPtr mesh, const BuildSettings& settings);
+// StructureInfo::refit of the bvh (bvh_refit.cpp): `source` must be a Bvh over moved's triangles.
+std::unique_ptr<Structure> refit_bvh(const Structure& source, MeshPtr moved);
 
 }  // namespace raylab

@@ -13,6 +13,10 @@
 
 namespace raylab {
 
+// The SAH's cost of one node visit, in units of one leaf block test: the builder's split decisions
+// and sah_cost (refit.h) use it (its measurement: bvh_build.cpp).
+inline constexpr float kSahTraversalCost = 2.0f;
+
 // A compact binary node (32 bytes). An inner node's children are nodes[index] and nodes[index + 1];
 // a leaf (count > 0) holds prims[index .. index + count).
 struct BvhNode {

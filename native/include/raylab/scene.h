@@ -1,7 +1,8 @@
 // A scene's geometry: meshes, instances of them with a 4x4 transform, and a top level over the
 // instances. One structure per mesh, in object space, shared by all its instances; rays are moved
-// into object space. Only what changed is rebuilt: a new transform rebuilds the top level alone (a
-// BVH over instance boxes, cheap), a replaced mesh rebuilds its own structure alone.
+// into object space. Only what changed is rebuilt: a replaced mesh rebuilds its own structure alone,
+// a refitted mesh (refit_mesh) refits it, and new transforms refit the top level (a BVH over instance
+// boxes) while the set of instances stays the same.
 //
 // Threads: changes and queries may come from any threads. Changes edit a private state; commit()
 // builds from it an immutable SceneSnapshot and swaps it in under a short lock. A query takes the
@@ -31,6 +32,11 @@ class Scene {
   // order), kept beside the mesh so the structures never see them; empty: flat. Validated as below.
   uint32_t add_mesh(MeshPtr mesh, std::vector<glm::vec3> corner_normals = {});  // returns the mesh id
   void replace_mesh(uint32_t mesh, MeshPtr replacement, std::vector<glm::vec3> corner_normals = {});
+  // New positions of mesh `mesh`'s vertices, its triangles kept (a deforming mesh): on commit() its
+  // structure is refitted from the last one (refit.h; octree and grid rebuild). Throws
+  // std::invalid_argument, changing nothing, unless `vertices` has the mesh's vertex count and every
+  // coordinate is finite and within kMaxCoordinate. Normals as in replace_mesh.
+  void refit_mesh(uint32_t mesh, std::vector<glm::vec3> vertices, std::vector<glm::vec3> corner_normals = {});
   void set_shading_normals(uint32_t mesh, std::vector<glm::vec3> corner_normals);
   // Throws std::invalid_argument on an unknown mesh id or a singular / non-finite transform.
   uint32_t add_instance(uint32_t mesh, const glm::mat4& transform, uint32_t material = 0);
@@ -40,8 +46,16 @@ class Scene {
   void clear_instances();
   void set_settings(const BuildSettings& settings);  // rebuilds every mesh structure on commit()
 
-  // Builds what is missing or stale (per-mesh structures, then the top level) and publishes it.
+  // Builds what is missing or stale (per-mesh structures, then the top level) and publishes it. The
+  // top level is kept when no instance box moved, refitted when only boxes moved (transforms, mesh
+  // changes) and the refitted tree's SAH cost stays within kTopLevelRefitLimit times its cost when
+  // built, else built anew.
   void commit();
+  // Each instance a ray enters costs a whole structure query, so the top level's quality matters
+  // more than its build, which takes microseconds for hundreds of instances: a refit that lets the
+  // cost grow by half is rebuilt. Small motions (an animation step) stay refits; objects that trade
+  // places rebuild.
+  static constexpr double kTopLevelRefitLimit = 1.5;
 
   // The state of the last commit(), for as long as it is held. Throws std::logic_error before the
   // first commit() and on the thread that changed the scene since the last one: that query would
@@ -65,6 +79,8 @@ class Scene {
   // Of the last commit (0 before the first).
   size_t memory_bytes() const;  // structures + top level
   double build_seconds() const;
+  TopLevelUpdate top_level_update() const;  // what the last commit did to the top level (Built before one)
+  double top_level_sah_cost() const;
 
  private:
   struct Impl;

@@ -29,7 +29,16 @@ struct SceneMesh {
   Bounds bounds;                                // object space
   std::shared_ptr<const Structure> structure;  // null while stale (only in the edited state)
   std::shared_ptr<const std::vector<glm::vec3>> shading_normals;  // 3 per triangle; null: flat
+  // Only in the edited state, while stale after Scene::refit_mesh: the structure to refit (refit.h)
+  // instead of building anew.
+  std::shared_ptr<const Structure> refit_source;
 };
+
+// What a commit did to the top level: kept the last one (no instance box changed), built it anew,
+// or refitted the last one's topology to moved instance boxes (Scene::commit says when).
+enum class TopLevelUpdate { Kept, Built, Refitted };
+inline constexpr const char* kTopLevelUpdateNames[] = {"kept", "built", "refitted"};
+inline const char* top_level_update_name(TopLevelUpdate u) { return kTopLevelUpdateNames[int(u)]; }
 
 struct SceneInstance {
   Instance instance;
@@ -80,6 +89,8 @@ class SceneSnapshot {
   size_t memory_bytes() const;  // structures + top level
   double build_seconds() const { return build_seconds_; }  // of the commit that made it
   uint64_t generation() const { return generation_; }  // the count of scene edits it includes
+  TopLevelUpdate top_level_update() const { return top_update_; }  // what the commit that made it did
+  double top_level_sah_cost() const;  // sah_cost (refit.h) of the top level, one instance per leaf
 
  private:
   friend class Scene;  // reuses the top level of the last snapshot when no instance box changed
@@ -103,6 +114,10 @@ class SceneSnapshot {
   std::shared_ptr<const BinaryBvh> top_;
   uint64_t generation_;
   double build_seconds_;
+  // Set by Scene::commit: how the top level came about, and its SAH cost when it was last built
+  // (carried through refits: the reference a refit's degradation is measured against).
+  TopLevelUpdate top_update_ = TopLevelUpdate::Built;
+  double top_built_sah_cost_ = 0.0;
 };
 
 using SceneSnapshotPtr = std::shared_ptr<const SceneSnapshot>;

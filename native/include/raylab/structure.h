@@ -49,6 +49,10 @@ struct StructureInfo {
   bool uses_top_level;      // in a Scene: a BVH over the instances' world boxes decides which to visit
   bool has_boxes;           // whether it has boxes to draw
   std::unique_ptr<Structure> (*build)(MeshPtr mesh, const BuildSettings& settings);
+  // Refit (refit.h): a new structure over moved vertices of the same triangles that keeps the
+  // source's topology. Null where the topology depends on the positions (octree, grid): refit
+  // rebuilds those, and the result says so (Structure::refitted()).
+  std::unique_ptr<Structure> (*refit)(const Structure& source, MeshPtr moved);
 };
 
 std::span<const StructureInfo> structure_kinds();
@@ -91,14 +95,19 @@ class Structure {
   const BuildSettings& settings() const { return settings_; }
   const TriangleMesh& mesh() const { return *mesh_; }
   const MeshPtr& mesh_ptr() const { return mesh_; }
-  double build_seconds() const { return build_seconds_; }
+  double build_seconds() const { return build_seconds_; }  // of the build, or of the refit that made it
+  // Made by refit_structure keeping its source's topology (false for a build, and for a refit that
+  // had to rebuild).
+  bool refitted() const { return refitted_; }
 
  protected:
   Structure(MeshPtr mesh, const BuildSettings& settings) : mesh_(std::move(mesh)), settings_(settings) {}
   MeshPtr mesh_;
   BuildSettings settings_;
   double build_seconds_ = 0.0;
+  bool refitted_ = false;
   friend std::unique_ptr<Structure> build_structure(MeshPtr, const BuildSettings&);
+  friend std::unique_ptr<Structure> refit_structure(const Structure&, MeshPtr);
 };
 
 // Implements the virtual queries once for each recorder by calling the derived class's templates:

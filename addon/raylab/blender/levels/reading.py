@@ -6,7 +6,9 @@ Conditions are small declarative tables, never code:
 
     { property = "raylab.max_depth", at_least = 5 }          also equals, at_most, in = [...]
     { id_property = "raylab_last_render", exists = true }    also length_at_least, changed = true
-    { object = "mesh", moved_at_least = 1.0 }                also tilted_at_least (degrees), mesh_changed
+    { object = "mesh", moved_at_least = 1.0 }                also tilted_at_least (degrees), mesh_changed,
+                                                             deforms (a modifier, shape keys or an armature
+                                                             parent may move its vertices frame by frame)
     { all = [ ... ] }, { any = [ ... ] }
 
 An id_property may name a value inside a record with dots: "raylab_heat_maps.structures.bvh.hardest" is
@@ -43,7 +45,7 @@ COMPARISONS = ("equals", "in", "at_least", "at_most")
 ID_PROPERTY_TESTS = ("exists", "length_at_least", "changed", "decreased")
 PROBE_TESTS = ("within",)
 OBJECT_KEYS = {"name": str, "file": str, "size": (int, float), "location": list, "color": list}
-OBJECT_TESTS = ("moved_at_least", "tilted_at_least", "mesh_changed")
+OBJECT_TESTS = ("moved_at_least", "tilted_at_least", "mesh_changed", "deforms")
 
 
 class LevelError(ValueError):

@@ -9,6 +9,7 @@ import bpy
 from mathutils import Matrix, Vector
 
 from .. import draw
+from ..structure_cache import may_deform
 from .reading import LevelError, find_level
 from .state import STATE_KEY, level_mesh_object, state
 
@@ -111,6 +112,8 @@ def evaluate_condition(scene, condition, index=0):
     if "tilted_at_least" in condition:  # the object's up axis against its start: turning about Z is no tilt
         up = obj.matrix_world.to_3x3() @ Vector((0.0, 0.0, 1.0))
         return _angle_between(up, start.to_3x3() @ Vector((0.0, 0.0, 1.0))) >= condition["tilted_at_least"]
+    if "deforms" in condition:
+        return may_deform(obj) == condition["deforms"]
     return (obj.get("raylab_mesh_source") != st["start_mesh"]) == condition["mesh_changed"]
 
 
