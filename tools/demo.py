@@ -10,14 +10,17 @@ import os
 import sys
 
 import bpy
+import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 
 import raylab  # noqa: E402
-from raylab.blender import compare, default_scene, scene_export  # noqa: E402
+from raylab.blender import compare, default_scene, heat_maps, levels, scene_export  # noqa: E402
 
 SUPER_SAMPLING = (1, 2, 3)
+# The demo's heat maps are drawn on the scale of the level that teaches them, so that they compare.
+HEAT_MAPS_LEVEL = "where_work_goes"
 # VRT's averages on its goat-head scene (thesis section 6.1, tables 1-4), for comparison.
 VRT_SECONDS = {1: (0.1803, 0.1480, 0.2784), 2: (0.5674, 0.4708, 0.8902), 3: (1.2525, 0.9915, 1.9080)}
 VRT_TRIANGLE_TESTS = {1: (116_960_000, 22_994_336, 1_173_277), 2: (467_840_000, 92_273_399, 4_700_384),
@@ -76,6 +79,34 @@ def tables(measurements, width, height, triangle_count):
     ])
 
 
+def heat_map_measurements(scene, out):
+    """Render Heat Maps on the demo scene (every structure's triangle tests per camera ray, one scale):
+    writes heat_maps.png (the maps left to right in STRUCTURES' order, the legend under them) and returns
+    the record (hardest pixel, where, mean, total per structure)."""
+    settings = levels.find_level(HEAT_MAPS_LEVEL).settings["raylab_render"]
+    scene.raylab_render.heat_maps_scale = settings["heat_maps_scale"]
+    job = heat_maps.new_job(bpy.context, time_limit=0.0)
+    job.run()
+    if job.error is not None:
+        raise job.error
+    record = heat_maps.heat_record(job.results, job.render_size, scene.raylab_render.heat_maps_scale)
+    picture = heat_maps.heat_image(job.results, record["maximum"])
+    height = record["size"][1]  # without the band Blender's Image Editor writes the numbers in: they are in the table
+    raylab.write_image(os.path.join(out, "heat_maps.png"),
+                       np.concatenate([picture[:height], picture[height + heat_maps.NUMBER_BAND:]]))
+    return record
+
+
+def heat_maps_table(record):
+    rows = [[name, f"{s['hardest']:,}", "{}, {}".format(*s["probe_pixel"]), f"{s['mean']:,.1f}", f"{s['total']:,.0f}"]
+            for name, s in record["structures"].items()]
+    w, h = record["size"]
+    return "\n" + markdown_table(
+        f"Heat maps ({w} x {h}, one camera ray per pixel): {record['label'].lower()} per pixel, "
+        f"scale 0 to {record['maximum']:g}+ (heat_maps.png)",
+        ["structure", "hardest pixel", "at (x, y)", "mean per pixel", "total"], rows)
+
+
 def main():
     (width, height), out = parse_arguments()
     os.makedirs(out, exist_ok=True)
@@ -95,13 +126,15 @@ def main():
                                            for key, value in result.stats.items()}
             print(f"  rendered {structure:6} at super sampling {ss}: "
                   f"{measurements[ss][structure]['render_seconds']:.3f} s", flush=True)
-    text = tables(measurements, width, height, triangle_count)
+    heat = heat_map_measurements(scene, out)
+    text = tables(measurements, width, height, triangle_count) + heat_maps_table(heat)
     print("\n" + text)
     with open(os.path.join(out, "table.md"), "w") as file:
         file.write(text)
     with open(os.path.join(out, "results.json"), "w") as file:
         json.dump({"scene": "goat head", "width": width, "height": height, "triangles": triangle_count,
-                   "measurements": {str(ss): m for ss, m in measurements.items()}}, file, indent=2)
+                   "measurements": {str(ss): m for ss, m in measurements.items()}, "heat_maps": heat},
+                  file, indent=2)
     print(f"raylab demo: images, table.md and results.json in {out}")
 
 
