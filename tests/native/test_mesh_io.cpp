@@ -130,8 +130,8 @@ TEST(MeshIoShipped, EveryShippedMeshLoadsWithItsCounts) {
     size_t vertices, triangles;
   } meshes[] = {{"armadillo", 14587, 29170}, {"bunny", 3301, 6598},     {"bunny_hr", 29834, 59664},
                 {"dragon", 50000, 100000},   {"goathead", 2763, 5522},  {"koala", 49999, 99994},
-                {"plane_holes", 8519, 16747}, {"sphere", 642, 1280},    {"spot_low_resolution", 829, 1654},
-                {"teapot", 3644, 6320}};
+                {"plane_holes", 8519, 16747}, {"rod", 12, 20},          {"sphere", 642, 1280},
+                {"spot_low_resolution", 829, 1654}, {"teapot", 3644, 6320}};
   size_t found = 0;
   for (const auto& entry : fs::directory_iterator(RAYLAB_MESH_DIR))
     found += entry.path().extension() == ".obj";

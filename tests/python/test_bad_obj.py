@@ -73,7 +73,7 @@ def test_valid_files_still_load_polygons_negative_indices_and_attributes(tmp_pat
 # The counts every shipped mesh had before the strict check (tinyobjloader alone).
 SHIPPED = {"armadillo": (14587, 29170), "bunny": (3301, 6598), "bunny_hr": (29834, 59664),
            "dragon": (50000, 100000), "goathead": (2763, 5522), "koala": (49999, 99994),
-           "plane_holes": (8519, 16747), "sphere": (642, 1280), "spot_low_resolution": (829, 1654),
+           "plane_holes": (8519, 16747), "rod": (12, 20), "sphere": (642, 1280), "spot_low_resolution": (829, 1654),
            "teapot": (3644, 6320)}
 
 
