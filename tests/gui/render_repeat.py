@@ -123,13 +123,34 @@ def slow_draw(self, context):
         pass
 
 
+def note(event):
+    """Which Python runs when, and on which thread: render_pre, render_post, the engine's methods."""
+    import threading
+    where = "main" if threading.current_thread() is threading.main_thread() else "job"
+    report.setdefault("events", []).append(f"{event} ({where}, render {report['renders_started']})")
+
+
 def note_render_pre(*args):
     import threading
     report.setdefault("render_pre_threads", []).append(threading.current_thread() is threading.main_thread())
+    note("render_pre")
+
+
+def noting(method):
+    def wrapper(self, *args, **kwargs):
+        note(method.__name__)
+        return method(self, *args, **kwargs)
+    wrapper.__name__ = method.__name__
+    return wrapper
 
 
 raylab.register()
 bpy.app.handlers.render_pre.append(note_render_pre)
+bpy.app.handlers.render_post.append(lambda *args: note("render_post"))
+if os.environ.get("RAYLAB_NOTE_EVENTS"):
+    from raylab.blender import render_engine
+    for name in ("render", "update_render_passes"):
+        setattr(render_engine.RaylabRenderEngine, name, noting(getattr(render_engine.RaylabRenderEngine, name)))
 if SLOW_DRAW_MS:
     for header in (bpy.types.STATUSBAR_HT_header, bpy.types.IMAGE_HT_header, bpy.types.VIEW3D_HT_header):
         header.append(slow_draw)

@@ -36,7 +36,7 @@ def _store_last_render(scene_name, record):
 
 def _flush_last_renders():
     if _saved_switch_interval and not bpy.app.is_job_running('RENDER'):
-        _release_render_guard()  # a render that ended without render_post or render_cancel
+        _release_render_guard()  # the render job is over: its thread calls no more Python
     while _pending_records:
         name, record = _pending_records.popitem()
         scene = bpy.data.scenes.get(name)
@@ -73,8 +73,10 @@ def _release_render_guard(*_args):
         sys.setswitchinterval(_saved_switch_interval.pop())
 
 
-_GUARD_HANDLERS = (("render_pre", _guard_render_start), ("render_post", _release_render_guard),
-                   ("render_cancel", _release_render_guard))
+# Released by _flush_last_renders once the job has ended, not at render_post: the job thread still calls
+# the engine's Python after it (update_render_passes, when the result's passes are listed), and with
+# render_post releasing it the forced race below locked Blender at the 4th render.
+_GUARD_HANDLERS = (("render_pre", _guard_render_start),)
 
 
 class RaylabRenderEngine(bpy.types.RenderEngine):
