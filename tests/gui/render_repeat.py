@@ -9,7 +9,7 @@ Python class method call on any thread, stayed off after a render whose job thre
 while the main thread was inside a Python draw; then every bpy.ops call fails with "can't modify blend
 data in this state (drawing/rendering)". RAYLAB_SLOW_DRAW_MS=N adds N ms of pure-Python work to three
 headers that redraw during a render, which makes that race likely: at 30 ms it locked Blender at the
-2nd render before render_engine's guard, and never in 50 renders after it.
+2nd render without render_engine's guard.
 """
 import json
 import os

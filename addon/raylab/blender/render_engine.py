@@ -53,10 +53,13 @@ def _flush_last_renders():
 # data in this state (drawing/rendering)" and Blender cannot quit. Python lets a waiting thread take
 # the interpreter from a running one after sys.getswitchinterval() (5 ms), so any draw longer than that
 # can be interrupted there. From render_pre (on the job thread, before render() is called) until the
-# render ends, a waiting thread therefore has to wait this long instead: the main thread finishes the
-# draw it is in, and render() finds the flag as it should be. (A forced race, tests/gui/render_repeat.py
-# with 30 ms header draws, locked Blender at the 2nd render before this guard and never after.)
-_SWITCH_INTERVAL_WHILE_RENDERING = 1.0
+# render job has ended, a waiting thread therefore has to wait this long instead: the main thread finishes
+# the draw it is in, and render() finds the flag as it should be. A forced race (tests/gui/render_repeat.py
+# with 30 ms header draws) locked Blender at the 2nd render without this guard. With 1 s it once locked at
+# the 4th, in a run on a machine loaded 4 to 6 times over its 2 cores, where a draw can stall for that
+# long; 10 s is longer than any draw, and only a thread that wants the interpreter while another runs
+# Python without a break (the render's scene export, a few seconds at worst) waits for it.
+_SWITCH_INTERVAL_WHILE_RENDERING = 10.0
 _saved_switch_interval = []  # the interval to restore, while a render holds the guard
 
 
@@ -73,9 +76,8 @@ def _release_render_guard(*_args):
         sys.setswitchinterval(_saved_switch_interval.pop())
 
 
-# Released by _flush_last_renders once the job has ended, not at render_post: the job thread still calls
-# the engine's Python after it (update_render_passes, when the result's passes are listed), and with
-# render_post releasing it the forced race below locked Blender at the 4th render.
+# Released by _flush_last_renders once the job has ended rather than at render_post, which the job thread
+# runs before it is done.
 _GUARD_HANDLERS = (("render_pre", _guard_render_start),)
 
 
