@@ -1,6 +1,7 @@
 """Blender-side helpers of the GUI scripts (they run inside a real Blender window under xvfb-run):
 find the 3D viewport, open its sidebar on the raylab tab, take a window screenshot, run steps one timer
 tick apart."""
+import json
 import os
 import shutil
 import subprocess
@@ -20,6 +21,39 @@ def view3d():
     region = next(r for r in area.regions if r.type == 'WINDOW')
     sidebar = next(r for r in area.regions if r.type == 'UI')
     return View3D(window, area, region, sidebar)
+
+
+def plain_view(rotation, distance, location=(0.0, 0.0, 0.0)):
+    """The largest 3D viewport in perspective at `rotation` (an Euler), `distance` from `location`, with
+    no gizmo and none of Blender's overlays that could be taken for raylab's drawing."""
+    _, area, _, _ = view3d()
+    space = area.spaces.active
+    space.show_gizmo = False
+    for flag in ("show_floor", "show_axis_x", "show_axis_y", "show_axis_z", "show_cursor",
+                 "show_object_origins", "show_extras", "show_outline_selected"):
+        setattr(space.overlay, flag, False)
+    rv3d = space.region_3d
+    rv3d.view_perspective = 'PERSP'
+    rv3d.view_location = location
+    rv3d.view_rotation = rotation.to_quaternion()
+    rv3d.view_distance = distance
+    area.tag_redraw()
+
+
+def run_steps(set_up, steps, report, report_path, first_interval=2.0):
+    """Runs set_up(), then the steps one per timer tick (step_timer); writes `report` as JSON to
+    report_path and quits, with "error" in it if anything failed."""
+    def finish():
+        with open(report_path, "w") as f:
+            json.dump(report, f)
+        bpy.ops.wm.quit_blender()
+
+    try:
+        set_up()
+        bpy.app.timers.register(step_timer(steps, finish, report), first_interval=first_interval)
+    except Exception:
+        report["error"] = traceback.format_exc()
+        finish()
 
 
 def show_sidebar():

@@ -5,20 +5,18 @@ cost heat map off and on, and a JSON with where the sphere projects and what the
 
 Writes OUT_DIR/cost_overlay_off.png, cost_overlay_on.png and cost_overlay.json (or "error" in it).
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 from bpy_extras.view3d_utils import location_3d_to_region_2d
-from mathutils import Euler, Vector
+from mathutils import Euler
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
 sys.path.insert(0, HERE)
 import raylab  # noqa: E402
-from blender_window import screenshot, step_timer, view3d  # noqa: E402
+from blender_window import plain_view, run_steps, screenshot, view3d  # noqa: E402
 from raylab.blender import cost_overlay  # noqa: E402
 
 OUT_DIR = sys.argv[sys.argv.index("--") + 1]
@@ -40,19 +38,7 @@ def set_up():
     settings.cost_counter = "triangle_tests"
     settings.cost_maximum = 16
     settings.cost_cells = 64
-    _, area, _, _ = view3d()
-    space = area.spaces.active
-    space.show_gizmo = False
-    space.overlay.show_overlays = True
-    for flag in ("show_floor", "show_axis_x", "show_axis_y", "show_axis_z", "show_cursor",
-                 "show_object_origins", "show_extras", "show_outline_selected", "show_text", "show_stats"):
-        setattr(space.overlay, flag, False)
-    rv3d = space.region_3d
-    rv3d.view_perspective = 'PERSP'
-    rv3d.view_location = (0.0, 0.0, 0.0)
-    rv3d.view_rotation = Euler((1.2, 0.0, 0.5)).to_quaternion()
-    rv3d.view_distance = 9.0
-    area.tag_redraw()
+    plain_view(Euler((1.2, 0.0, 0.5)), 9.0)
 
 
 STEPS = []
@@ -84,15 +70,4 @@ def shot_on():
                   hardest=int(grid.counts.max()), legend=dict(origin=cost_overlay.LEGEND_ORIGIN, size=cost_overlay.LEGEND_SIZE))
 
 
-def finish():
-    with open(STEM + ".json", "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-try:
-    set_up()
-    bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+run_steps(set_up, STEPS, report, STEM + ".json")

@@ -9,10 +9,8 @@ region's place in the window, the drawn boxes' corners projected into the region
 (bpy_extras.view3d_utils.location_3d_to_region_2d) with their edges, the probe's status and text
 colour, or "error" if anything failed.
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 from bpy_extras.view3d_utils import location_3d_to_region_2d
@@ -23,7 +21,7 @@ ROOT = os.path.join(HERE, os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 sys.path.insert(0, HERE)
 import raylab  # noqa: E402
-from blender_window import screenshot, step_timer, view3d  # noqa: E402
+from blender_window import plain_view, run_steps, screenshot, view3d  # noqa: E402
 from raylab.blender import overlay, probe, structure_cache  # noqa: E402
 
 OUT_DIR, STRUCTURE = sys.argv[sys.argv.index("--") + 1:][:2]
@@ -48,19 +46,7 @@ def set_up():
     settings.xray = True           # no box edge hidden behind the sphere
     probe.ensure_probe_object(scene)
     settings.probe_enabled = False
-
-    _, area, region, _ = view3d()
-    space = area.spaces.active
-    space.show_gizmo = False  # the navigation gizmo's green Y axis is not ours
-    for flag in ("show_floor", "show_axis_x", "show_axis_y", "show_axis_z", "show_cursor",
-                 "show_object_origins", "show_extras", "show_outline_selected"):
-        setattr(space.overlay, flag, False)
-    rv3d = space.region_3d
-    rv3d.view_perspective = 'PERSP'
-    rv3d.view_location = (0.0, 0.0, 0.0)
-    rv3d.view_rotation = Euler((1.2, 0.0, 0.5)).to_quaternion()
-    rv3d.view_distance = 9.0
-    area.tag_redraw()
+    plain_view(Euler((1.2, 0.0, 0.5)), 9.0)
 
 
 def describe():
@@ -110,15 +96,4 @@ def shot_probe_on():
     screenshot(STEM + "_on.png")
 
 
-def finish():
-    with open(STEM + ".json", "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-try:
-    set_up()
-    bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+run_steps(set_up, STEPS, report, STEM + ".json")

@@ -182,8 +182,17 @@ class StructureJobOperator:
     """The operator side of a CompareJob, for every operator that renders once per structure (Compare
     Structures, the heat maps): execute() runs the job at once (scripts), invoke() on a worker thread
     watched by a modal timer (progress, a report per structure, Esc cancels). A subclass gives
-    _new_job(context), _finish(context, job) (main thread: store the results) and `activity`."""
+    job_for(context, time_limit) (a staticmethod: the job, exported on the main thread), _finish(context,
+    job) (main thread: store the results) and `activity`."""
     activity = "comparing structures"  # for the status bar: "raylab: <activity>, bvh (40%)"
+
+    time_limit: bpy.props.FloatProperty(
+        name="Time Limit", default=-1.0, min=-1.0, options={'SKIP_SAVE', 'HIDDEN'},
+        description="Skip a structure whose render is estimated to take longer, in seconds (0: no limit; "
+                    "-1: the limit in the add-on's Preferences)")
+
+    def _new_job(self, context):
+        return self.job_for(context, None if self.time_limit < 0.0 else self.time_limit)
 
     @classmethod
     def poll(cls, context):
@@ -279,14 +288,7 @@ class RAYLAB_OT_compare_structures(StructureJobOperator, bpy.types.Operator):
     bl_idname = "raylab.compare_structures"
     bl_label = "Compare Structures"
     bl_options = {'REGISTER', 'UNDO'}
-
-    time_limit: bpy.props.FloatProperty(
-        name="Time Limit", default=-1.0, min=-1.0, options={'SKIP_SAVE', 'HIDDEN'},
-        description="Skip a structure whose render is estimated to take longer, in seconds (0: no limit; "
-                    "-1: the limit in the add-on's Preferences)")
-
-    def _new_job(self, context):
-        return new_job(context, None if self.time_limit < 0.0 else self.time_limit)
+    job_for = staticmethod(new_job)
 
     def _finish(self, context, job):
         job.store(context.scene, context.scene.raylab_render.super_sampling)

@@ -175,14 +175,7 @@ class RAYLAB_OT_heat_maps(compare.StructureJobOperator, bpy.types.Operator):
     bl_label = "Render Heat Maps"
     bl_options = {'REGISTER', 'UNDO'}
     activity = "rendering heat maps"
-
-    time_limit: bpy.props.FloatProperty(
-        name="Time Limit", default=-1.0, min=-1.0, options={'SKIP_SAVE', 'HIDDEN'},
-        description="Skip a structure whose render is estimated to take longer, in seconds (0: no limit; "
-                    "-1: the limit in the add-on's Preferences)")
-
-    def _new_job(self, context):
-        return new_job(context, None if self.time_limit < 0.0 else self.time_limit)
+    job_for = staticmethod(new_job)
 
     def _finish(self, context, job):
         try:
