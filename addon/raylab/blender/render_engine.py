@@ -63,7 +63,10 @@ _SWITCH_INTERVAL_WHILE_RENDERING = 10.0
 _saved_switch_interval = []  # the interval to restore, while a render holds the guard
 
 
+@bpy.app.handlers.persistent
 def _guard_render_start(scene, *_args):
+    """render_pre: takes the guard (released by _flush_last_renders once the job has ended rather than at
+    render_post, which the job thread runs before it is done)."""
     if (threading.current_thread() is threading.main_thread() or scene is None
             or scene.render.engine != RaylabRenderEngine.bl_idname or _saved_switch_interval):
         return
@@ -71,14 +74,9 @@ def _guard_render_start(scene, *_args):
     sys.setswitchinterval(_SWITCH_INTERVAL_WHILE_RENDERING)
 
 
-def _release_render_guard(*_args):
+def _release_render_guard():
     if _saved_switch_interval:
         sys.setswitchinterval(_saved_switch_interval.pop())
-
-
-# Released by _flush_last_renders once the job has ended rather than at render_post, which the job thread
-# runs before it is done.
-_GUARD_HANDLERS = (("render_pre", _guard_render_start),)
 
 
 class RaylabRenderEngine(bpy.types.RenderEngine):
@@ -196,18 +194,15 @@ def register():
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.add('RAYLAB')
     bpy.app.timers.register(_flush_last_renders, persistent=True)
-    for name, handler in _GUARD_HANDLERS:
-        getattr(bpy.app.handlers, name).append(bpy.app.handlers.persistent(handler))
+    bpy.app.handlers.render_pre.append(_guard_render_start)
 
 
 def unregister():
     if bpy.app.timers.is_registered(_flush_last_renders):
         bpy.app.timers.unregister(_flush_last_renders)
     _pending_records.clear()
-    for name, handler in _GUARD_HANDLERS:
-        handlers = getattr(bpy.app.handlers, name)
-        if handler in handlers:
-            handlers.remove(handler)
+    if _guard_render_start in bpy.app.handlers.render_pre:
+        bpy.app.handlers.render_pre.remove(_guard_render_start)
     _release_render_guard()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.discard('RAYLAB')
