@@ -11,6 +11,7 @@ data in this state (drawing/rendering)". RAYLAB_SLOW_DRAW_MS=N adds N ms of pure
 headers that redraw during a render, which makes that race likely: at 30 ms it locked Blender at the
 2nd render without render_engine's guard.
 """
+import faulthandler
 import json
 import os
 import sys
@@ -18,6 +19,8 @@ import time
 import traceback
 
 import bpy
+
+faulthandler.enable(all_threads=True)  # if Blender aborts, every thread's Python stack goes to stderr
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -50,6 +53,8 @@ def poke(when):
     """What a user or a script does meanwhile: operators and a property edit that undo can see."""
     if not POKE:
         return
+    if NOTE_EVENTS:
+        note(f"poke {when}")
     try:
         if "ops" in POKE:
             with bpy.context.temp_override(**blender_window.main_window_override()):
@@ -114,20 +119,26 @@ def retry():
 
 
 SLOW_DRAW_MS = float(os.environ.get("RAYLAB_SLOW_DRAW_MS", "0"))
+NOTE_EVENTS = bool(os.environ.get("RAYLAB_NOTE_EVENTS"))
 
 
 def slow_draw(self, context):
     """A header that draws in pure Python for SLOW_DRAW_MS: Python may switch threads inside it."""
+    if NOTE_EVENTS:
+        note(f"draw {type(self).__name__}")
     end = time.perf_counter() + SLOW_DRAW_MS / 1000.0
     while time.perf_counter() < end:
         pass
+    if NOTE_EVENTS:
+        note(f"drawn {type(self).__name__}")
 
 
 def note(event):
     """Which Python runs when, and on which thread: render_pre, render_post, the engine's methods."""
     import threading
     where = "main" if threading.current_thread() is threading.main_thread() else "job"
-    report.setdefault("events", []).append(f"{event} ({where}, render {report['renders_started']})")
+    report.setdefault("events", []).append(
+        f"{1000 * time.perf_counter():.1f} ms {event} ({where}, render {report['renders_started']})")
 
 
 def note_render_pre(*args):
@@ -137,9 +148,21 @@ def note_render_pre(*args):
 
 
 def noting(method):
-    def wrapper(self, *args, **kwargs):
-        note(method.__name__)
-        return method(self, *args, **kwargs)
+    """The engine's `method`, noting its calls; the same parameters, which Blender counts."""
+    if method.__name__ == "render":
+        def wrapper(self, depsgraph):
+            note("render")
+            try:
+                return method(self, depsgraph)
+            finally:
+                note("render returns")
+    else:
+        def wrapper(self, scene=None, renderlayer=None):
+            note(method.__name__)
+            try:
+                return method(self, scene, renderlayer)
+            finally:
+                note(f"{method.__name__} returns")
     wrapper.__name__ = method.__name__
     return wrapper
 
@@ -147,13 +170,19 @@ def noting(method):
 raylab.register()
 bpy.app.handlers.render_pre.append(note_render_pre)
 bpy.app.handlers.render_post.append(lambda *args: note("render_post"))
-if os.environ.get("RAYLAB_NOTE_EVENTS"):
+if NOTE_EVENTS:
+    bpy.app.handlers.render_init.append(lambda *args: note("render_init"))
     from raylab.blender import render_engine
     for name in ("render", "update_render_passes"):
         setattr(render_engine.RaylabRenderEngine, name, noting(getattr(render_engine.RaylabRenderEngine, name)))
+if os.environ.get("RAYLAB_NO_ERROR_SET"):  # to find whether RenderEngine.error_set plays a part in a crash
+    from raylab.blender import render_engine
+    render_engine.RaylabRenderEngine.error_set = lambda self, message: None
 if SLOW_DRAW_MS:
     for header in (bpy.types.STATUSBAR_HT_header, bpy.types.IMAGE_HT_header, bpy.types.VIEW3D_HT_header):
         header.append(slow_draw)
 bpy.context.preferences.view.render_display_type = 'WINDOW'
 bpy.context.scene.render.resolution_percentage = 25
+if os.environ.get("RAYLAB_RENDER_ENGINE"):  # to compare with Blender's own engines (e.g. BLENDER_WORKBENCH)
+    bpy.context.scene.render.engine = os.environ["RAYLAB_RENDER_ENGINE"]
 bpy.app.timers.register(start_render, first_interval=1.0)

@@ -35,6 +35,7 @@ def _store_last_render(scene_name, record):
 
 
 def _flush_last_renders():
+    _main_thread_between_calls.set()  # a timer never runs inside a draw: see _guard_render_start
     if _saved_switch_interval and not bpy.app.is_job_running('RENDER'):
         _release_render_guard()  # the render job is over: its thread calls no more Python
     while _pending_records:
@@ -42,36 +43,49 @@ def _flush_last_renders():
         scene = bpy.data.scenes.get(name)
         if scene is not None:
             scene[render_stats.LAST_RENDER] = record
-    return 0.25
+    return _TIMER_SECONDS
 
 
 # F12 calls render() on a job thread. Blender (3.4 to 4.3 at least) keeps "may Python write blend data"
 # in one global flag, which each call into a Python class method saves, sets and restores. If the job
-# thread enters render() while the main thread is half-way through drawing a panel or header in Python
-# (the flag then says "no writes"), render() saves "no writes" and puts it back when it returns, after
-# the main thread has restored "writes": from then on every bpy.ops call fails with "can't modify blend
-# data in this state (drawing/rendering)" and Blender cannot quit. Python lets a waiting thread take
-# the interpreter from a running one after sys.getswitchinterval() (5 ms), so any draw longer than that
-# can be interrupted there. From render_pre (on the job thread, before render() is called) until the
-# render job has ended, a waiting thread therefore has to wait this long instead: the main thread finishes
-# the draw it is in, and render() finds the flag as it should be. A forced race (tests/gui/render_repeat.py
-# with 30 ms header draws) locked Blender at the 2nd render without this guard. With 1 s it once locked at
-# the 4th, in a run on a machine loaded 4 to 6 times over its 2 cores, where a draw can stall for that
-# long; 10 s is longer than any draw, and only a thread that wants the interpreter while another runs
-# Python without a break (the render's scene export, a few seconds at worst) waits for it.
+# thread enters update_render_passes() or render() while the main thread is half-way through drawing a
+# panel or header in Python (the flag then says "no writes"), it saves "no writes" and puts it back when
+# it returns, after the main thread has restored "writes": from then on every bpy.ops call fails with
+# "can't modify blend data in this state (drawing/rendering)" and Blender cannot quit.
+# Python lets a waiting thread take the interpreter from a running one after sys.getswitchinterval()
+# (5 ms), so the job thread can take it in the middle of any draw longer than that, and it does so for
+# render_init and render_pre themselves (seen in tests/gui/render_repeat.py's trace, 6 ms into a 30 ms
+# header draw). So render_pre, on the job thread, before Blender calls the engine:
+#  1. makes a waiting thread wait 10 s instead, until the render job has ended, so that no draw that
+#     starts from now on can be interrupted (a draw of 10 s is beyond any panel; only a thread that wants
+#     the interpreter while another runs Python without a break, the render's scene export, waits);
+#  2. then waits until a main-thread timer has run. Timers run between events, never inside a draw, so
+#     a draw that the job thread interrupted to run render_pre has finished by then and restored the
+#     flag. Without this second step, Blender 4.3 still locked in 1 of 4 runs of 50 renders: after
+#     render_pre the job thread took the interpreter back before the main thread could finish its draw.
+# A forced race (render_repeat.py with 30 ms header draws) locked Blender at the 2nd render without
+# either step. The wait ends after _MAIN_THREAD_WAIT_SECONDS in any case (a main thread blocked on the
+# render job itself runs no timer and no draw), so it can delay a render but never hang one.
 _SWITCH_INTERVAL_WHILE_RENDERING = 10.0
+_TIMER_SECONDS = 0.1  # also the longest an F12 waits for the main thread (step 2), 50 ms on average
+_MAIN_THREAD_WAIT_SECONDS = 2.0
 _saved_switch_interval = []  # the interval to restore, while a render holds the guard
+_main_thread_between_calls = threading.Event()
 
 
 @bpy.app.handlers.persistent
 def _guard_render_start(scene, *_args):
     """render_pre: takes the guard (released by _flush_last_renders once the job has ended rather than at
-    render_post, which the job thread runs before it is done)."""
+    render_post, which the job thread runs before it is done) and waits for the main thread to be
+    outside any draw."""
     if (threading.current_thread() is threading.main_thread() or scene is None
-            or scene.render.engine != RaylabRenderEngine.bl_idname or _saved_switch_interval):
+            or scene.render.engine != RaylabRenderEngine.bl_idname):
         return
-    _saved_switch_interval.append(sys.getswitchinterval())
-    sys.setswitchinterval(_SWITCH_INTERVAL_WHILE_RENDERING)
+    if not _saved_switch_interval:  # else the last render's guard is still held: its job ended just now
+        _saved_switch_interval.append(sys.getswitchinterval())
+        sys.setswitchinterval(_SWITCH_INTERVAL_WHILE_RENDERING)
+    _main_thread_between_calls.clear()
+    _main_thread_between_calls.wait(_MAIN_THREAD_WAIT_SECONDS)  # lets go of the interpreter meanwhile
 
 
 def _release_render_guard():
