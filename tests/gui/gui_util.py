@@ -24,6 +24,16 @@ def start_blend(directory):
     return path
 
 
+def demo_blend(path):
+    """Saves raylab's demo scene (save_demo_blend.py) to `path` afresh, for the F12 tests."""
+    if os.path.exists(path):
+        os.remove(path)
+    subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1",
+                    "--python", os.path.join(os.path.dirname(os.path.abspath(__file__)), "save_demo_blend.py"),
+                    "--", path], check=True, capture_output=True, timeout=120)
+    return path
+
+
 def run_gui_blender(script, args, blend=None, timeout=600, extra=()):
     """Runs `script` inside Blender in a 1600x900 Xvfb window; the script quits Blender itself.
     `extra`: more Blender flags (e.g. --enable-event-simulate). Returns the finished process (its

@@ -6,6 +6,8 @@ import subprocess
 
 import numpy as np
 import pytest
+
+import gui_util
 from matplotlib import image as mpimg
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -22,9 +24,7 @@ def f12_render():
     for path in (blend, screenshot, report_path):
         if os.path.exists(path):
             os.remove(path)
-    subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1",
-                    "--python", os.path.join(HERE, "save_demo_blend.py"), "--", blend],
-                   check=True, capture_output=True, timeout=120)
+    gui_util.demo_blend(blend)
     run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
                           blend, "--python-exit-code", "1", "--python", os.path.join(HERE, "render_f12.py"), "--", screenshot, report_path],
                          capture_output=True, text=True, timeout=300)

@@ -10,6 +10,8 @@ import sys
 import numpy as np
 import pytest
 
+import gui_util
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 HERE = os.path.join(ROOT, "tests", "gui")
 OUT = os.path.join(ROOT, "out", "gui")
@@ -29,9 +31,7 @@ def f12_passes():
     for path in (blend, report_path, exr, screenshot):
         if os.path.exists(path):
             os.remove(path)
-    subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1",
-                    "--python", os.path.join(HERE, "save_demo_blend.py"), "--", blend],
-                   check=True, capture_output=True, timeout=120)
+    gui_util.demo_blend(blend)
     run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
                           "--python-exit-code", "1", "--python", os.path.join(HERE, "render_passes_f12.py"), "--",
                           report_path, exr, screenshot], capture_output=True, text=True, timeout=300)

@@ -6,6 +6,8 @@ import json
 import os
 import subprocess
 
+import gui_util
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 HERE = os.path.join(ROOT, "tests", "gui")
 OUT = os.path.join(ROOT, "out", "gui")
@@ -19,9 +21,7 @@ def test_fifty_f12_renders_leave_operators_usable():
     for path in (blend, report_path):
         if os.path.exists(path):
             os.remove(path)
-    subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1",
-                    "--python", os.path.join(HERE, "save_demo_blend.py"), "--", blend],
-                   check=True, capture_output=True, timeout=120)
+    gui_util.demo_blend(blend)
     run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
                           "--python", os.path.join(HERE, "render_repeat.py"), "--", report_path, str(RENDERS)],
                          capture_output=True, text=True, timeout=1200, env={**os.environ, "RAYLAB_SLOW_DRAW_MS": "30"})
