@@ -1,0 +1,53 @@
+"""The probe's fan at its largest (64 x 64 = 4,096 rays) in a real Blender window under Xvfb: the fan is
+drawn, and the mesh stays visible under it (issue 12: every ray drawn as a line covered the whole view).
+Runs fan_shot.py inside Blender on the demo scene; the screenshots land in out/gui/fan_off.png, fan_on.png."""
+import os
+
+import numpy as np
+import pytest
+
+import gui_util
+
+FAN_SHOT = os.path.join(gui_util.ROOT, "tests", "gui", "fan_shot.py")
+# Of the goat's pixels with the fan off, the share that must look the same with the fan on. Measured on
+# Blender 3.4: 0.87 with the fan drawn as raylab draws it (256 lines and a dot where each ray ends), 0.15
+# with every ray drawn as a line (RAYLAB_FAN_ALL_LINES=1 in fan_shot.py), as before issue 12.
+MESH_STILL_VISIBLE = 0.5
+
+
+def goat_mask(rgb):
+    """The goat's orange-brown shading; Blender's UI, the ground and the background are grey."""
+    red, green, blue = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return (red > 0.24) & (red - blue > 0.16) & (red > green)
+
+
+@pytest.fixture(scope="module")
+def fan_shots(tmp_path_factory):
+    os.makedirs(gui_util.OUT, exist_ok=True)
+    stem = os.path.join(gui_util.OUT, "fan")
+    for suffix in ("_off.png", "_on.png", ".json"):
+        if os.path.exists(stem + suffix):
+            os.remove(stem + suffix)
+    blend = gui_util.demo_blend(str(tmp_path_factory.mktemp("fan") / "demo.blend"))
+    process = gui_util.run_gui_blender(FAN_SHOT, [gui_util.OUT], blend=blend, timeout=300,
+                                       extra=("--python-exit-code", "1"))
+    report = gui_util.read_report(stem + ".json", process)
+    off, on = gui_util.load_rgb(stem + "_off.png"), gui_util.load_rgb(stem + "_on.png")
+    region = gui_util.Region(report["region"], off.shape[0])
+    return report, region.crop(off), region.crop(on)
+
+
+def test_the_fan_is_drawn_as_a_sample_of_lines(fan_shots):
+    report, off, on = fan_shots
+    assert report["fan_rays"] == 4096 and report["lines_drawn"] <= 256
+    changed = np.any(np.abs(on - off) > 0.1, axis=-1)
+    assert changed.sum() > 5000, "the fan is not drawn"
+
+
+def test_the_mesh_stays_visible_under_the_largest_fan(fan_shots):
+    _, off, on = fan_shots
+    goat = goat_mask(off)
+    assert goat.sum() > 5000, "the goat is not in the view"
+    unchanged = np.all(np.abs(on - off) < 0.06, axis=-1)  # the same colour as without the fan
+    still = np.mean(unchanged[goat])
+    assert still >= MESH_STILL_VISIBLE, f"only {still:.0%} of the goat's pixels still show it under the fan"
