@@ -127,11 +127,12 @@ class Bvh final : public StructureBase<Bvh> {
   template <class Width, bool kClosest, class Recorder>
   [[gnu::always_inline]] bool traverse_wide(const Ray& ray, Hit* hit, Recorder& record) const {
     record.ray();
-    const BoxRay box_ray(ray, root_bounds_);
+    const glm::vec3 direction = effective_direction(ray.direction);  // once for both tests
+    const BoxRay box_ray(ray, direction, root_bounds_);
     Entry stack[kStackSize];
     int size = 0;
     if (!enter_root(box_ray, record, stack, size)) return false;
-    const TriangleTester tester(ray, settings_.triangle_test);
+    const TriangleTester tester(ray, settings_.triangle_test, direction);
     const typename Width::BoxRayW boxw(box_ray);
     const typename Width::TriangleRayW triw(tester.watertight);
     Hit best = initial_hit(ray);
