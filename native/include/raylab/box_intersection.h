@@ -5,6 +5,8 @@
 
 #include "raylab/geometry.h"
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -37,12 +39,15 @@ struct BoxRay {
 
   // For a structure (or the scene's top level) whose boxes all lie inside `root`; an empty root
   // gives no pad (the bare slab test).
-  BoxRay(const Ray& ray, const Bounds& root)
-      : origin(ray.origin),
-        inv_dir(1.0f / effective_direction(ray.direction)),
-        tmin(ray.tmin),
-        tmax(ray.tmax),
-        pad(box_pad(ray.origin, root)) {}
+  BoxRay(const Ray& ray, const Bounds& root) : BoxRay(ray, effective_direction(ray.direction), root) {}
+  // With the ray's effective_direction() already computed (a traversal shares it with its triangle
+  // test: the per-ray setup is a measurable part of a ray that misses or hits early).
+  BoxRay(const Ray& ray, const glm::vec3& effective_dir, const Bounds& root)
+      : origin(ray.origin), tmin(ray.tmin), tmax(ray.tmax), pad(box_pad(ray.origin, root)) {
+    alignas(16) float inv[4];  // one packed division; each lane rounds as 1.0f / d[i]
+    _mm_store_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(effective_dir.x, effective_dir.y, effective_dir.z, 1.0f)));
+    inv_dir = {inv[0], inv[1], inv[2]};
+  }
 
   // kBoxPadScale times the largest distance, along any axis, from the origin to the root box.
   static float box_pad(const glm::vec3& origin, const Bounds& root) {

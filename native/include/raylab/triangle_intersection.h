@@ -5,6 +5,8 @@
 
 #include "raylab/geometry.h"
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -56,20 +58,31 @@ struct WatertightRay {
   float sx, sy, sz;
   double dsx, dsy, dsz;
 
-  explicit WatertightRay(const Ray& ray) : origin(ray.origin) {
-    const glm::vec3 d = effective_direction(ray.direction);
+  explicit WatertightRay(const Ray& ray) : WatertightRay(ray, effective_direction(ray.direction)) {}
+  // `d`: the ray's effective_direction(), when the caller has it already.
+  WatertightRay(const Ray& ray, const glm::vec3& d) : origin(ray.origin) {
+    // Branch-free: on incoherent rays the axis choice and the swap are coin flips, and the quotients
+    // run as three packed divisions instead of six scalar ones (each lane rounds as the scalar one).
     const glm::vec3 a = glm::abs(d);
-    kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
-    kx = (kz + 1) % 3;
-    ky = (kx + 1) % 3;
+    const int x_over_y = a.x > a.y, x_over_z = a.x > a.z, y_over_z = a.y > a.z;
+    kz = x_over_y ? 2 - 2 * x_over_z : 2 - y_over_z;  // the largest, the first of equals
+    kx = kz == 2 ? 0 : kz + 1;
+    ky = kx == 2 ? 0 : kx + 1;
     // Swap to keep the winding, so that the sign of the determinant stays meaningful.
-    if (d[kz] < 0.0f) std::swap(kx, ky);
-    sx = d[kx] / d[kz];
-    sy = d[ky] / d[kz];
-    sz = 1.0f / d[kz];
-    dsx = double(d[kx]) / double(d[kz]);
-    dsy = double(d[ky]) / double(d[kz]);
-    dsz = 1.0 / double(d[kz]);
+    const int swap = (kx ^ ky) & -int(d[kz] < 0.0f);
+    kx ^= swap;
+    ky ^= swap;
+    const float fx = d[kx], fy = d[ky], fz = d[kz];
+    alignas(16) float q[4];
+    _mm_store_ps(q, _mm_div_ps(_mm_setr_ps(fx, fy, 1.0f, 1.0f), _mm_set1_ps(fz)));
+    sx = q[0];
+    sy = q[1];
+    sz = q[2];
+    alignas(16) double dq[2];
+    _mm_store_pd(dq, _mm_div_pd(_mm_setr_pd(fx, fy), _mm_set1_pd(fz)));
+    dsx = dq[0];
+    dsy = dq[1];
+    dsz = 1.0 / double(fz);
   }
 };
 
@@ -179,8 +192,11 @@ struct TriangleTester {
   WatertightRay watertight;
   TriangleTest test;
 
-  TriangleTester(const Ray& r, TriangleTest kind) : ray(r), watertight(r), test(kind) {
-    ray.direction = effective_direction(r.direction);
+  TriangleTester(const Ray& r, TriangleTest kind) : TriangleTester(r, kind, effective_direction(r.direction)) {}
+  // `effective_dir`: the ray's effective_direction(), when the caller has it already.
+  TriangleTester(const Ray& r, TriangleTest kind, const glm::vec3& effective_dir)
+      : ray(r), watertight(r, effective_dir), test(kind) {
+    ray.direction = effective_dir;
   }
 
   bool operator()(const TriangleMesh& mesh, uint32_t triangle, float tmax, TriangleHit& out) const {
