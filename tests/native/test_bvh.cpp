@@ -150,6 +150,13 @@ TEST(BvhBuild, IsTheSameOnOneThreadAsOnAll) {
   EXPECT_EQ(0, std::memcmp(ta.packets().data(), tb.packets().data(), ta.packets().size() * sizeof(TrianglePacket)));
 }
 
+TEST(BvhBuild, RefusesALeafBlockThatIsNotAPowerOfTwo) {
+  const std::vector<Bounds> prims{{glm::vec3(0.0f), glm::vec3(1.0f)}, {glm::vec3(2.0f), glm::vec3(3.0f)}};
+  EXPECT_THROW(build_binary_bvh(prims, 8, 3), std::invalid_argument);
+  EXPECT_THROW(build_binary_bvh(prims, 8, 0), std::invalid_argument);
+  EXPECT_EQ(build_binary_bvh(prims, 8, 4).prims.size(), 2u);
+}
+
 TEST(BvhBuild, BoxesReportDepthsLeavesAndSubtreeCounts) {
   const auto s = build_structure(load("sphere.obj"), settings_for(StructureKind::Bvh, 4));
   const std::vector<BoxInfo> boxes = s->boxes();

@@ -37,9 +37,9 @@ struct BinaryBvh {
 
 // Leaves hold at most `max_leaf_size` primitives; below that the SAH decides whether to split. The
 // SAH counts a leaf's cost in blocks of `leaf_block` primitives (4 for leaves tested four at a time
-// with SIMD, where 1 and 4 triangles cost the same). Primitives with empty bounds are left out
-// (nothing can hit them). The result is the same for any number of threads: subtrees are built in
-// parallel into slots fixed by their primitive ranges.
+// with SIMD, where 1 and 4 triangles cost the same; a power of two, else std::invalid_argument).
+// Primitives with empty bounds are left out (nothing can hit them). The result is the same for any
+// number of threads: subtrees are built in parallel into slots fixed by their primitive ranges.
 BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_leaf_size, uint32_t leaf_block = 1);
 
 // The bytes build_binary_bvh needs at most for n primitives, for checking a memory budget first.
