@@ -1,6 +1,7 @@
 #include "raylab/bvh_build.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/concurrent_vector.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_group.h>
@@ -161,11 +162,26 @@ Result reduce_range(uint32_t begin, uint32_t end, const Result& identity, Body b
       });
 }
 
+// A subtree built in one task: its nodes in the order they were made (the root, then each inner
+// node's two children as it splits, depth first), an inner node's index counting from the root.
+// Only the tree's top (nodes of kTaskThreshold primitives or more) lives in slots fixed by
+// primitive ranges; these arrays are mostly untouched, so only the pages written are ever mapped.
+using LocalTree = std::vector<BvhNode>;
+
+template <class T>
+HugeArray<T> make_sparse_array(size_t n) {
+  T* p = static_cast<T*>(std::malloc(std::max<size_t>(n * sizeof(T), 1)));
+  if (!p) throw std::bad_alloc();
+  return HugeArray<T>(p);
+}
+
 class Builder {
  public:
-  Builder(HugeArray<PrimRef>& refs, HugeArray<BvhNode>& slots, uint32_t max_leaf_size, uint32_t leaf_block)
+  Builder(HugeArray<PrimRef>& refs, uint32_t n, uint32_t max_leaf_size, uint32_t leaf_block)
       : refs_(refs),
-        slots_(slots),
+        slots_(make_sparse_array<BvhNode>(2 * size_t(n) - 1)),
+        left_nodes_(make_sparse_array<uint32_t>(2 * size_t(n) - 1)),
+        local_(make_sparse_array<const LocalTree*>(2 * size_t(n) - 1)),
         max_leaf_size_(max_leaf_size),
         leaf_block_(leaf_block),
         leaf_round_(_mm_set1_epi32(int32_t(leaf_block - 1))),
@@ -182,10 +198,19 @@ class Builder {
   // Builds the subtree over refs_[begin, end) (described by `info`) with its root in `slot`. A
   // subtree over n primitives needs at most 2n - 2 descendant slots, which it takes from
   // `first_descendant` on: its children there, then the left child's descendants, then the right
-  // child's. Fixed slots make the tree independent of task scheduling.
-  void build(uint32_t slot, uint32_t first_descendant, uint32_t begin, uint32_t end, const RangeInfo& info,
-             int depth) {
-    node_count_.fetch_add(1, std::memory_order_relaxed);
+  // child's. Fixed slots make the tree independent of task scheduling. A subtree below
+  // kTaskThreshold primitives becomes a LocalTree instead. Returns the subtree's node count.
+  uint32_t build(uint32_t slot, uint32_t first_descendant, uint32_t begin, uint32_t end, const RangeInfo& info,
+                 int depth) {
+    if (end - begin < kTaskThreshold) {
+      LocalTree& tree = *locals_.emplace_back();
+      tree.reserve(2 * size_t(end - begin) - 1);
+      tree.resize(1);
+      build_local(tree, 0, begin, end, info, depth);
+      local_[slot] = &tree;
+      return uint32_t(tree.size());
+    }
+    local_[slot] = nullptr;
     BvhNode& node = slots_[slot];
     const Bounds box = info.bounds.bounds();
     node.lo = box.lo;
@@ -195,29 +220,67 @@ class Builder {
     if (mid == begin) {
       node.index = begin;
       node.count = end - begin;
-      return;
+      return 1;
     }
     node.index = first_descendant;
     node.count = 0;
     const uint32_t left_count = mid - begin;
-    auto left = [&] { build(first_descendant, first_descendant + 2, begin, mid, left_info, depth + 1); };
-    auto right = [&] {
-      build(first_descendant + 1, first_descendant + 2 * left_count, mid, end, right_info, depth + 1);
-    };
-    if (end - begin >= kTaskThreshold) {
-      tbb::task_group group;
-      group.run(left);
-      right();
-      group.wait();
-    } else {
-      left();
-      right();
-    }
+    uint32_t left_nodes = 0, right_nodes = 0;
+    tbb::task_group group;
+    group.run([&] { left_nodes = build(first_descendant, first_descendant + 2, begin, mid, left_info, depth + 1); });
+    right_nodes = build(first_descendant + 1, first_descendant + 2 * left_count, mid, end, right_info, depth + 1);
+    group.wait();
+    left_nodes_[slot] = left_nodes;
+    return 1 + left_nodes + right_nodes;
   }
 
-  uint32_t node_count() const { return node_count_.load(); }
+  // Copies the subtree in `slot` (of `nodes` nodes) to out[at], its descendants from out[first_free]
+  // on, depth first with siblings adjacent (the order of a LocalTree), large subtrees in parallel.
+  void compact(uint32_t slot, uint32_t nodes, uint32_t at, uint32_t first_free, BvhNode* out) const {
+    if (const LocalTree* tree = local_[slot]) {
+      const auto placed = [first_free](BvhNode node) {
+        if (!node.leaf()) node.index += first_free - 1;
+        return node;
+      };
+      out[at] = placed((*tree)[0]);
+      for (size_t k = 1; k < tree->size(); ++k) out[first_free + k - 1] = placed((*tree)[k]);
+      return;
+    }
+    BvhNode node = slots_[slot];
+    if (!node.leaf()) {
+      const uint32_t child = node.index, left = left_nodes_[slot], right = nodes - 1 - left;
+      node.index = first_free;
+      tbb::task_group group;
+      group.run([&] { compact(child, left, first_free, first_free + 2, out); });
+      compact(child + 1, right, first_free + 1, first_free + 2 + (left - 1), out);
+      group.wait();
+    }
+    out[at] = node;
+  }
 
  private:
+  // Builds the subtree over refs_[begin, end) into tree[at], in this task.
+  void build_local(LocalTree& tree, uint32_t at, uint32_t begin, uint32_t end, const RangeInfo& info, int depth) {
+    BvhNode node;
+    const Bounds box = info.bounds.bounds();
+    node.lo = box.lo;
+    node.hi = box.hi;
+    RangeInfo left_info, right_info;
+    const uint32_t mid = split(info, begin, end, depth, left_info, right_info);
+    if (mid == begin) {
+      node.index = begin;
+      node.count = end - begin;
+      tree[at] = node;
+      return;
+    }
+    node.index = uint32_t(tree.size());
+    node.count = 0;
+    tree[at] = node;
+    tree.resize(tree.size() + 2);
+    build_local(tree, node.index, begin, mid, left_info, depth + 1);
+    build_local(tree, node.index + 1, mid, end, right_info, depth + 1);
+  }
+
   // Partitions refs_[begin, end) and returns the start of the right part (describing both parts),
   // or `begin` for a leaf.
   uint32_t split(const RangeInfo& info, uint32_t begin, uint32_t end, int depth, RangeInfo& left_info,
@@ -402,11 +465,13 @@ class Builder {
   }
 
   HugeArray<PrimRef>& refs_;
-  HugeArray<BvhNode>& slots_;
+  HugeArray<BvhNode> slots_;
+  HugeArray<uint32_t> left_nodes_;  // an inner slot's left subtree node count
+  HugeArray<const LocalTree*> local_;  // a slot's LocalTree, or null
+  tbb::concurrent_vector<LocalTree> locals_;
   uint32_t max_leaf_size_;
   uint32_t leaf_block_;
   __m128i leaf_round_, leaf_shift_;
-  std::atomic<uint32_t> node_count_{0};
 };
 
 }  // namespace
@@ -425,49 +490,67 @@ void* allocate_huge(size_t bytes) {
   return p;
 }
 
+
 size_t binary_bvh_build_bytes(size_t n) {
-  // References, the 2n slots, the compacted nodes (at most 2n) and the primitive order.
+  // References, the local trees (at most 2n nodes), the compacted nodes (at most 2n) and the
+  // primitive order; the slot arrays are mostly never touched.
   return n * (sizeof(PrimRef) + 4 * sizeof(BvhNode) + sizeof(uint32_t));
 }
 
+namespace {
+
+constexpr uint32_t kRefGrain = 1024;              // primitives per task when making references
+
+}  // namespace
+
 BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_leaf_size, uint32_t leaf_block) {
-  uint32_t n = 0;
-  for (const Bounds& b : prim_bounds) n += !b.empty();
+  return build_binary_bvh(
+      uint32_t(prim_bounds.size()),
+      [&](uint32_t begin, uint32_t end, Bounds* out) { std::copy(&prim_bounds[begin], &prim_bounds[end], out); },
+      max_leaf_size, leaf_block);
+}
+
+BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32_t max_leaf_size,
+                           uint32_t leaf_block) {
   if (!std::has_single_bit(leaf_block))
     throw std::invalid_argument("build_binary_bvh: leaf_block must be a power of two");
   BinaryBvh bvh;
-  if (n == 0) return bvh;
-  HugeArray<PrimRef> refs = make_huge_array<PrimRef>(n);
-  uint32_t next = 0;
-  for (size_t i = 0; i < prim_bounds.size(); ++i) {
-    const Bounds& b = prim_bounds[i];
-    if (b.empty()) continue;
-    const __m128 lo = _mm_setr_ps(b.lo.x, b.lo.y, b.lo.z, 0.0f);
-    refs[next++] = {_mm_castsi128_ps(_mm_insert_epi32(_mm_castps_si128(lo), int32_t(i), 3)),
-                    _mm_setr_ps(b.hi.x, b.hi.y, b.hi.z, 0.0f)};
+  if (count == 0) return bvh;
+  // Every primitive's reference in parallel; then, only when some box is empty, a stable pass
+  // leaves those out.
+  HugeArray<PrimRef> refs = make_huge_array<PrimRef>(count);
+  std::atomic<uint32_t> empty{0};
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, kRefGrain), [&](const tbb::blocked_range<uint32_t>& r) {
+    Bounds boxes[kRefGrain];
+    uint32_t empties = 0;
+    for (uint32_t first = r.begin(); first < r.end(); first += kRefGrain) {
+      const uint32_t last = std::min(r.end(), first + kRefGrain);
+      bounds_of(first, last, boxes);
+      for (uint32_t i = first; i < last; ++i) {
+        const Bounds& b = boxes[i - first];
+        empties += b.empty();
+        const __m128 lo = _mm_setr_ps(b.lo.x, b.lo.y, b.lo.z, 0.0f);
+        refs[i] = {_mm_castsi128_ps(_mm_insert_epi32(_mm_castps_si128(lo), int32_t(i), 3)),
+                   _mm_setr_ps(b.hi.x, b.hi.y, b.hi.z, 0.0f)};
+      }
+    }
+    if (empties) empty.fetch_add(empties, std::memory_order_relaxed);
+  });
+  uint32_t n = count;
+  if (empty.load() != 0) {
+    n = 0;
+    for (uint32_t i = 0; i < count; ++i)
+      if (!Box{refs[i].lo, refs[i].hi}.bounds().empty()) refs[n++] = refs[i];
+    if (n == 0) return bvh;
   }
-  // Only the slots the tree uses are written, and only those are read.
-  HugeArray<BvhNode> slots = make_huge_array<BvhNode>(2 * size_t(n) - 1);
-  Builder builder(refs, slots, std::max(max_leaf_size, 1u), leaf_block);
-  builder.build(0, 1, 0, n, builder.scan(0, n), 0);
-
-  // Compact the used slots, depth first, keeping siblings adjacent.
-  bvh.nodes.reserve(builder.node_count());
-  bvh.nodes.push_back(slots[0]);
-  std::vector<uint32_t> pending{0};
-  while (!pending.empty()) {
-    const uint32_t i = pending.back();
-    pending.pop_back();
-    if (bvh.nodes[i].leaf()) continue;
-    const uint32_t children = uint32_t(bvh.nodes.size());
-    bvh.nodes.push_back(slots[bvh.nodes[i].index]);
-    bvh.nodes.push_back(slots[bvh.nodes[i].index + 1]);
-    bvh.nodes[i].index = children;
-    pending.push_back(children + 1);
-    pending.push_back(children);
-  }
+  Builder builder(refs, n, std::max(max_leaf_size, 1u), leaf_block);
+  const uint32_t nodes = builder.build(0, 1, 0, n, builder.scan(0, n), 0);
+  bvh.nodes.resize(nodes);
+  builder.compact(0, nodes, 0, 1, bvh.nodes.data());
   bvh.prims.resize(n);
-  for (uint32_t i = 0; i < n; ++i) bvh.prims[i] = refs[i].index();
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 4 * kRefGrain), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t i = r.begin(); i != r.end(); ++i) bvh.prims[i] = refs[i].index();
+  });
   return bvh;
 }
 
