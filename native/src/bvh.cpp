@@ -16,17 +16,16 @@ BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& se
   const size_t n = mesh.triangle_count();
   // The binary build, then the wide copy (packets of at most about 2x the triangles; 8-wide nodes are
   // half as many as 4-wide ones and twice the size).
-  const size_t needed = n * sizeof(Bounds) + binary_bvh_build_bytes(n) + 2 * n * sizeof(TrianglePacket) / 4 +
-                        n * sizeof(Bvh4Node) / 2;
+  const size_t needed = binary_bvh_build_bytes(n) + 2 * n * sizeof(TrianglePacket) / 4 + n * sizeof(Bvh4Node) / 2;
   if (needed > settings.memory_budget)
     throw BuildError("bvh: building over " + std::to_string(n) + " triangles needs about " +
                      std::to_string(needed) + " bytes, over the memory budget of " +
                      std::to_string(settings.memory_budget));
-  std::vector<Bounds> bounds(n);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) bounds[i] = mesh.triangle_bounds(uint32_t(i));
-  });
-  return build_binary_bvh(bounds, uint32_t(settings.leaf_size), 4);  // leaves are tested in packets of four
+  const auto bounds_of = [&mesh](uint32_t begin, uint32_t end, Bounds* out) {
+    for (uint32_t i = begin; i < end; ++i) out[i - begin] = mesh.triangle_bounds(i);
+  };
+  // Leaves are tested in packets of four.
+  return build_binary_bvh(uint32_t(n), bounds_of, uint32_t(settings.leaf_size), 4);
 }
 
 template <int W>

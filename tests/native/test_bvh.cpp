@@ -150,6 +150,44 @@ TEST(BvhBuild, IsTheSameOnOneThreadAsOnAll) {
   EXPECT_EQ(0, std::memcmp(ta.packets().data(), tb.packets().data(), ta.packets().size() * sizeof(TrianglePacket)));
 }
 
+TEST(BvhBuild, RefusesALeafBlockThatIsNotAPowerOfTwo) {
+  const std::vector<Bounds> prims{{glm::vec3(0.0f), glm::vec3(1.0f)}, {glm::vec3(2.0f), glm::vec3(3.0f)}};
+  EXPECT_THROW(build_binary_bvh(prims, 8, 3), std::invalid_argument);
+  EXPECT_THROW(build_binary_bvh(prims, 8, 0), std::invalid_argument);
+  EXPECT_EQ(build_binary_bvh(prims, 8, 4).prims.size(), 2u);
+}
+
+// Enough boxes for several reference tasks and for subtrees built as local trees and placed in
+// parallel; every seventh box is empty.
+TEST(BvhBuild, LeavesOutEmptyBoxesAsIfTheyWereNeverGiven) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> coord(-10.0f, 10.0f), size(0.0f, 0.5f);
+  std::vector<Bounds> all, kept;
+  std::vector<uint32_t> kept_index;
+  for (uint32_t i = 0; i < 20000; ++i) {
+    if (i % 7 == 3) {
+      all.push_back(Bounds());
+      continue;
+    }
+    const glm::vec3 lo(coord(rng), coord(rng), coord(rng));
+    all.push_back({lo, lo + glm::vec3(size(rng), size(rng), size(rng))});
+    kept.push_back(all.back());
+    kept_index.push_back(i);
+  }
+  const BinaryBvh with_empty = build_binary_bvh(all, 4, 4);
+  const BinaryBvh without = build_binary_bvh(kept, 4, 4);
+  ASSERT_EQ(with_empty.nodes.size(), without.nodes.size());
+  EXPECT_EQ(0, std::memcmp(with_empty.nodes.data(), without.nodes.data(), without.nodes.size() * sizeof(BvhNode)));
+  ASSERT_EQ(with_empty.prims.size(), kept.size());
+  for (size_t i = 0; i < kept.size(); ++i) EXPECT_EQ(with_empty.prims[i], kept_index[without.prims[i]]);
+  // The callback form builds the same tree.
+  const BinaryBvh from_callback = build_binary_bvh(
+      uint32_t(all.size()), [&](uint32_t b, uint32_t e, Bounds* out) { std::copy(&all[b], &all[e], out); }, 4, 4);
+  ASSERT_EQ(from_callback.nodes.size(), with_empty.nodes.size());
+  EXPECT_EQ(0, std::memcmp(from_callback.nodes.data(), with_empty.nodes.data(), with_empty.nodes.size() * sizeof(BvhNode)));
+  EXPECT_EQ(from_callback.prims, with_empty.prims);
+}
+
 TEST(BvhBuild, BoxesReportDepthsLeavesAndSubtreeCounts) {
   const auto s = build_structure(load("sphere.obj"), settings_for(StructureKind::Bvh, 4));
   const std::vector<BoxInfo> boxes = s->boxes();

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <cstdlib>
+#include <functional>
 #include <memory>
 #include <span>
 #include <type_traits>
@@ -37,10 +38,18 @@ struct BinaryBvh {
 
 // Leaves hold at most `max_leaf_size` primitives; below that the SAH decides whether to split. The
 // SAH counts a leaf's cost in blocks of `leaf_block` primitives (4 for leaves tested four at a time
-// with SIMD, where 1 and 4 triangles cost the same). Primitives with empty bounds are left out
-// (nothing can hit them). The result is the same for any number of threads: subtrees are built in
-// parallel into slots fixed by their primitive ranges.
+// with SIMD, where 1 and 4 triangles cost the same; a power of two, else std::invalid_argument).
+// Primitives with empty bounds are left out (nothing can hit them). The result is the same for any
+// number of threads: the tree's top is built in parallel into slots fixed by primitive ranges, each
+// smaller subtree whole in one task, and the nodes are then placed by subtree sizes.
 BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_leaf_size, uint32_t leaf_block = 1);
+
+// The same over `count` primitives whose boxes bounds_of(begin, end, out) writes to out[0, end - begin)
+// (called in parallel on disjoint ranges of at most 1024): the mesh BVH computes triangle boxes
+// straight into the build's references, without an array of them.
+using BoundsSource = std::function<void(uint32_t begin, uint32_t end, Bounds* out)>;
+BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32_t max_leaf_size,
+                           uint32_t leaf_block = 1);
 
 // The bytes build_binary_bvh needs at most for n primitives, for checking a memory budget first.
 size_t binary_bvh_build_bytes(size_t n);
