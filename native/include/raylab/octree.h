@@ -156,14 +156,14 @@ class Octree final : public StructureBase<Octree> {
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
     return closest_over_leaves(*mesh_, settings_.triangle_test, ray, hit, record, [&](auto limit, auto visit) {
-      walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(triangles_of(leaf)); });
+      walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
     }, Mailbox{});
   }
 
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
     return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, [&](auto limit, auto visit) {
-      walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(triangles_of(leaf)); });
+      walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
     }, Mailbox{});
   }
 
@@ -183,8 +183,15 @@ class Octree final : public StructureBase<Octree> {
     return {triangles_.data() + leaf.first, leaf.triangle_count()};
   }
 
+  // Starts loading the vertex indices of a leaf's triangles, all at once before the first is tested:
+  // each is a cache miss on a large mesh, and the tests one after another waited on them in turn.
+  std::span<const uint32_t> prefetched(std::span<const uint32_t> leaf) const {
+    for (const uint32_t t : leaf) _mm_prefetch(reinterpret_cast<const char*>(&mesh_->triangles[t]), _MM_HINT_T0);
+    return leaf;
+  }
+
   // Trivially constructible (glm vectors, not a Bounds with its empty-box initialiser): the walk's
-  // stack of 129 entries was filled with empty boxes on every query, about a tenth of an octree's
+  // stack (then of 129 entries) was filled with empty boxes on every query, about a tenth of an octree's
   // camera-ray time on dragon.obj.
   struct StackEntry {
     glm::vec3 lo, hi;
@@ -224,7 +231,7 @@ class Octree final : public StructureBase<Octree> {
         const OctreeNode node = nodes_[entry.node];
         if (node.leaf()) {
           if (visit_leaf(node)) return;
-        } else if (enter_nearest_child(entry, node, ray, octant_ray, near_octant, limit(), record, stack, top)) {
+        } else if (enter_nearest_child(nodes_, entry, node, ray, octant_ray, near_octant, limit(), record, stack, top)) {
           continue;
         }
       }
@@ -236,10 +243,16 @@ class Octree final : public StructureBase<Octree> {
   // Tests the children of inner node `entry` and replaces `entry` with the nearest child hit, pushing
   // the others hit farthest first (so the next nearest is on top); false when no child is hit.
   template <class Recorder>
-  [[gnu::always_inline]] static bool enter_nearest_child(StackEntry& entry, const OctreeNode& node, const Ray& ray,
+  [[gnu::always_inline]] static bool enter_nearest_child(std::span<const OctreeNode> nodes, StackEntry& entry,
+                                                         const OctreeNode& node, const Ray& ray,
                                                          const OctantRay& octant_ray, int near_octant, float far,
                                                          Recorder& record, StackEntry* stack, int& top) {
     alignas(16) float t[8];
+    // The children (8 bytes each, side by side) are loaded while their boxes are tested: on large
+    // meshes the walk waits on memory. With the leaves' prefetch (prefetched): octree / BVH camera
+    // rays on dragon.obj, closest hit, best of 15 interleaved repetitions, two runs each on a machine
+    // loaded 7 times over, 0.26 and 0.19 -> 0.31 and 0.32.
+    _mm_prefetch(reinterpret_cast<const char*>(nodes.data() + node.first), _MM_HINT_T0);
     const uint32_t hit =
         intersect_octants(OctantBox::load(entry.lo, entry.hi), octant_ray, far, t) & node.child_mask();
     const Bounds box = entry.box();
