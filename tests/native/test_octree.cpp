@@ -472,3 +472,13 @@ TEST(OctreeExactness, OctantTestEqualsTheBoxTestOfEachOctant) {
   EXPECT_GT(hits, 100000);
   EXPECT_GT(misses, 100000);
 }
+
+// The walk's front-to-back order: bit k of the permuted mask is the octant k ^ flip.
+TEST(OctreeExactness, OctantMaskPermutationPutsOctantKXorFlipAtBitK) {
+  for (uint32_t mask = 0; mask < 256; ++mask)
+    for (int flip = 0; flip < 8; ++flip) {
+      const uint32_t permuted = xor_permute_octants(mask, flip);
+      ASSERT_EQ(permuted & ~0xffu, 0u);
+      for (int k = 0; k < 8; ++k) ASSERT_EQ((permuted >> k) & 1u, (mask >> (k ^ flip)) & 1u) << mask << " " << flip;
+    }
+}
