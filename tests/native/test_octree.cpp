@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <set>
 
@@ -429,10 +430,10 @@ TEST(OctreeExactness, TinyDirectionComponentsOnASplitPlaneBehaveLikeZero) {
   }
 }
 
-// The parametric test of a node's eight octants is the box test of each octant's own box, bit for bit:
+// The SIMD test of a node's eight octants is the scalar box test of each octant's own box, bit for bit:
 // random boxes and rays, axis-parallel rays, origins exactly on the node's faces and mid-planes (the
 // NaN of 0 * inf), -0 and tiny direction components, and every far limit.
-TEST(OctreeExactness, OctantSlabsEqualTheBoxTestOfEachOctant) {
+TEST(OctreeExactness, OctantTestEqualsTheBoxTestOfEachOctant) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
   std::uniform_int_distribution<int> pick(0, 5);
@@ -455,18 +456,29 @@ TEST(OctreeExactness, OctantSlabsEqualTheBoxTestOfEachOctant) {
     // The root the pad is measured from: a larger box around this one, or the box itself.
     const Bounds root = i % 2 ? box : Bounds(box.lo - glm::vec3(2.0f), box.hi + glm::vec3(2.0f));
     const BoxRay r(ray, root);
-    const OctantSlabs slabs(box, r);
-    for (float tmax : {kInfinity, 1.0f, 3.0f, ray.tmin}) {
+    const OctantRay octant_ray(r);
+    for (float tmax : {kInfinity, 1.0f, 3.0f, ray.tmin, std::numeric_limits<float>::quiet_NaN()}) {
+      float got[8];
+      const uint32_t mask = intersect_octants(OctantBox::load(box.lo, box.hi), octant_ray, tmax, got);
       for (int octant = 0; octant < 8; ++octant) {
-        float expected = -7.0f, got = -7.0f;
+        float expected = -7.0f;
         const bool a = intersect_box(octant_bounds(box, octant), r, tmax, expected);
-        const bool b = slabs.intersect(octant, r, tmax, got);
-        ASSERT_EQ(a, b) << "ray " << i << " octant " << octant;
-        ASSERT_EQ(std::bit_cast<uint32_t>(expected), std::bit_cast<uint32_t>(got)) << "ray " << i;
+        ASSERT_EQ(a, ((mask >> octant) & 1u) != 0) << "ray " << i << " octant " << octant;
+        if (a) ASSERT_EQ(std::bit_cast<uint32_t>(expected), std::bit_cast<uint32_t>(got[octant])) << "ray " << i;
         (a ? hits : misses)++;
       }
     }
   }
   EXPECT_GT(hits, 100000);
   EXPECT_GT(misses, 100000);
+}
+
+// The walk's front-to-back order: bit k of the permuted mask is the octant k ^ flip.
+TEST(OctreeExactness, OctantMaskPermutationPutsOctantKXorFlipAtBitK) {
+  for (uint32_t mask = 0; mask < 256; ++mask)
+    for (int flip = 0; flip < 8; ++flip) {
+      const uint32_t permuted = xor_permute_octants(mask, flip);
+      ASSERT_EQ(permuted & ~0xffu, 0u);
+      for (int k = 0; k < 8; ++k) ASSERT_EQ((permuted >> k) & 1u, (mask >> (k ^ flip)) & 1u) << mask << " " << flip;
+    }
 }
