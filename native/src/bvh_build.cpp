@@ -212,18 +212,10 @@ class Builder {
     }
     local_[slot] = nullptr;
     BvhNode& node = slots_[slot];
-    const Bounds box = info.bounds.bounds();
-    node.lo = box.lo;
-    node.hi = box.hi;
     RangeInfo left_info, right_info;
-    const uint32_t mid = split(info, begin, end, depth, left_info, right_info);
-    if (mid == begin) {
-      node.index = begin;
-      node.count = end - begin;
-      return 1;
-    }
+    const uint32_t mid = split_node(node, info, begin, end, depth, left_info, right_info);
+    if (mid == begin) return 1;
     node.index = first_descendant;
-    node.count = 0;
     const uint32_t left_count = mid - begin;
     uint32_t left_nodes = 0, right_nodes = 0;
     tbb::task_group group;
@@ -262,23 +254,30 @@ class Builder {
   // Builds the subtree over refs_[begin, end) into tree[at], in this task.
   void build_local(LocalTree& tree, uint32_t at, uint32_t begin, uint32_t end, const RangeInfo& info, int depth) {
     BvhNode node;
-    const Bounds box = info.bounds.bounds();
-    node.lo = box.lo;
-    node.hi = box.hi;
     RangeInfo left_info, right_info;
-    const uint32_t mid = split(info, begin, end, depth, left_info, right_info);
+    const uint32_t mid = split_node(node, info, begin, end, depth, left_info, right_info);
     if (mid == begin) {
-      node.index = begin;
-      node.count = end - begin;
       tree[at] = node;
       return;
     }
     node.index = uint32_t(tree.size());
-    node.count = 0;
     tree[at] = node;
     tree.resize(tree.size() + 2);
     build_local(tree, node.index, begin, mid, left_info, depth + 1);
     build_local(tree, node.index + 1, mid, end, right_info, depth + 1);
+  }
+
+  // `node` over refs_[begin, end): its box, and either a leaf of them all (returns `begin`) or an inner
+  // node (count 0, index left to the caller) whose parts split() describes (returns the right part's start).
+  uint32_t split_node(BvhNode& node, const RangeInfo& info, uint32_t begin, uint32_t end, int depth,
+                      RangeInfo& left_info, RangeInfo& right_info) {
+    const Bounds box = info.bounds.bounds();
+    node.lo = box.lo;
+    node.hi = box.hi;
+    const uint32_t mid = split(info, begin, end, depth, left_info, right_info);
+    node.index = begin;
+    node.count = mid == begin ? end - begin : 0;
+    return mid;
   }
 
   // Partitions refs_[begin, end) and returns the start of the right part (describing both parts),
