@@ -43,15 +43,6 @@ def set_up():
     plain_view(Euler((1.25, 0.0, -0.5)), 7.0, location=(0.0, 0.0, 1.2))
 
 
-STEPS = []
-
-
-def step(function):
-    STEPS.append(function)
-    return function
-
-
-@step
 def shot_fan_off():
     _, _, region, _ = view3d()
     report.update(region=dict(x=region.x, y=region.y, width=region.width, height=region.height))
@@ -60,11 +51,10 @@ def shot_fan_off():
     view3d().area.tag_redraw()
 
 
-@step
 def shot_fan_on():
     screenshot(STEM + "_on.png")
     report.update(fan_rays=FAN_SIZE * FAN_SIZE, lines_drawn=len(probe.fan_lines(FAN_SIZE)),
                   status=probe.evaluate_probe(bpy.context.scene)["status"])
 
 
-run_steps(set_up, STEPS, report, STEM + ".json")
+run_steps(set_up, [shot_fan_off, shot_fan_on], report, STEM + ".json")

@@ -1,7 +1,7 @@
 """50 F12 renders in a row in a real Blender window (under Xvfb), with bpy.ops usable after each: the F12
 lock-up of issue 12. Headers that spend 30 ms in Python on every redraw make the race behind it likely
 (render_repeat.py says how): without render_engine's guard, Blender locked at the 2nd render; with only
-its first step (the 10 s switch interval), Blender 4.3 still locked at the 1st render in 1 of 4 runs.
+its first step (the 10 s switch interval), Blender 4.3 still locked at the 1st render in 1 of 5 runs.
 
 Not in the automatic suite: with both steps it passed 6 of 6 runs on Blender 4.3 and 4 of 4 on 3.4, but
 inside the whole Debian 13 GUI suite Blender 4.3 once ended without writing its report (the abort of

@@ -61,7 +61,7 @@ def _flush_last_renders():
 #     the interpreter while another runs Python without a break, the render's scene export, waits);
 #  2. then waits until a main-thread timer has run. Timers run between events, never inside a draw, so
 #     a draw that the job thread interrupted to run render_pre has finished by then and restored the
-#     flag. Without this second step, Blender 4.3 still locked in 1 of 4 runs of 50 renders: after
+#     flag. Without this second step, Blender 4.3 still locked in 1 of 5 runs of 50 renders: after
 #     render_pre the job thread took the interpreter back before the main thread could finish its draw.
 # A forced race (render_repeat.py with 30 ms header draws) locked Blender at the 2nd render without
 # either step. The wait ends after _MAIN_THREAD_WAIT_SECONDS in any case (a main thread blocked on the
