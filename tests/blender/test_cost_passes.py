@@ -40,12 +40,13 @@ def enable(scene, names, cost_rays="all"):
 
 def render_exr(scene):
     """F12 with multilayer EXR output written to disk: {channel name: (H, W) float32, row 0 the top}."""
-    path = os.path.join(tempfile.mkdtemp(prefix="raylab_passes_"), "render.exr")
-    scene.render.image_settings.file_format = 'OPEN_EXR_MULTILAYER'
-    scene.render.image_settings.color_depth = '32'
-    scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
-    return _raylab_images.read_channels(path)
+    with tempfile.TemporaryDirectory(prefix="raylab_passes_") as folder:
+        path = os.path.join(folder, "render.exr")
+        scene.render.image_settings.file_format = 'OPEN_EXR_MULTILAYER'
+        scene.render.image_settings.color_depth = '32'
+        scene.render.filepath = path
+        bpy.ops.render.render(write_still=True)
+        return _raylab_images.read_channels(path)
 
 
 def channel(scene, pass_name):

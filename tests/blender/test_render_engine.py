@@ -27,14 +27,15 @@ def demo_scene():
 
 def render_f12(scene):
     """bpy.ops.render.render() as F12 does it; returns the Render Result as (H, W, 4) float, row 0 at the top."""
-    path = os.path.join(tempfile.mkdtemp(prefix="raylab_render_"), "render.exr")
     scene.render.image_settings.file_format = 'OPEN_EXR'
     scene.render.image_settings.color_depth = '32'
     bpy.ops.render.render()
-    bpy.data.images["Render Result"].save_render(path, scene=scene)
-    image = bpy.data.images.load(path)
-    pixels = np.array(image.pixels[:], np.float32).reshape(image.size[1], image.size[0], 4)[::-1]
-    bpy.data.images.remove(image)
+    with tempfile.TemporaryDirectory(prefix="raylab_render_") as folder:
+        path = os.path.join(folder, "render.exr")
+        bpy.data.images["Render Result"].save_render(path, scene=scene)
+        image = bpy.data.images.load(path)
+        pixels = np.array(image.pixels[:], np.float32).reshape(image.size[1], image.size[0], 4)[::-1]
+        bpy.data.images.remove(image)
     return pixels
 
 

@@ -1,6 +1,7 @@
 """Every Blender these tests start gets a fresh user folder whose saved preferences turn the splash off:
 on a first start (no preferences yet) Blender 4.x covers the window with its Quick Setup screen."""
 import os
+import shutil
 import subprocess
 import tempfile
 
@@ -22,3 +23,4 @@ def blender_user_folder():
             os.environ.pop(key, None)
         else:
             os.environ[key] = value
+    shutil.rmtree(folder, ignore_errors=True)
