@@ -3,10 +3,11 @@ lock-up of issue 12. Headers that spend 30 ms in Python on every redraw make the
 (render_repeat.py says how): without render_engine's guard, Blender locked at the 2nd render; with only
 its first step (the 10 s switch interval), Blender 4.3 still locked at the 1st render in 1 of 5 runs.
 
-Back in the automatic suite: with both steps it passed 8 of 8 separate runs on Blender 4.3 and 2 of 2
-whole Debian 13 GUI suites (2026-11-30, machine load 5 to 7), after 6 of 6 and 4 of 4 on 3.4 the day
-before. One earlier run inside the whole Debian 13 suite ended without its report, its output not kept;
-if this test fails again, its assertion carries the tail of Blender's stderr (faulthandler's stacks)."""
+Back in the automatic suite: with both steps it passed 8 of 8 separate runs on Blender 4.3, 2 of 2
+whole Debian 13 GUI suites (2026-11-30, machine load 5 to 7) and 1 of 1 on 3.4, after 6 of 6 on 4.3
+and 4 of 4 on 3.4 the day before. One earlier run inside the whole Debian 13 suite ended without its
+report, its output not kept; if this test fails again, its assertion carries the tail of Blender's
+stderr (faulthandler's stacks)."""
 import json
 import os
 import subprocess
