@@ -123,7 +123,7 @@ uint32_t Scene::add_mesh(MeshPtr mesh, std::vector<glm::vec3> corner_normals) {
   const Bounds bounds = mesh->bounds();
   auto normals = shared_normals(*mesh, std::move(corner_normals));
   std::lock_guard lock(impl_->mutex);
-  impl_->edited.meshes.push_back({std::move(mesh), bounds, nullptr, std::move(normals)});
+  impl_->edited.meshes.push_back({std::move(mesh), bounds, nullptr, std::move(normals), nullptr});
   impl_->changed(false);
   return uint32_t(impl_->edited.meshes.size() - 1);
 }
@@ -139,7 +139,7 @@ void Scene::replace_mesh(uint32_t mesh, MeshPtr replacement, std::vector<glm::ve
   // Normals not given: flat, as the old ones belonged to the old triangles.
   auto normals = shared_normals(*replacement, std::move(corner_normals));
   std::lock_guard lock(impl_->mutex);
-  impl_->mesh_slot(mesh) = {std::move(replacement), bounds, nullptr, std::move(normals)};
+  impl_->mesh_slot(mesh) = {std::move(replacement), bounds, nullptr, std::move(normals), nullptr};
   impl_->changed(true);  // its instances' world boxes changed
 }
 
