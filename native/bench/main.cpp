@@ -1,7 +1,7 @@
 // raylab_bench: raylab's structures side by side with Embree 3 on one mesh, the same rays, one run.
 // Writes <out>/<name>.json (timings, counts, hit agreement) and the .npy files the Python driver
 // and Blender's BVHTree run use (mesh, a subset of the rays, Embree's hits on them).
-// Usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS --name NAME --out DIR [options]; see --help.
+// Usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS|subdivided:LEVELS:FILE.obj --name NAME --out DIR [options]; see --help.
 #include "embree_tracer.h"
 #include "hit_comparison.h"
 #include "npy.h"
@@ -29,6 +29,8 @@
 #include <thread>
 #include <unordered_map>
 
+#include <time.h>
+
 namespace raylab::bench {
 namespace {
 
@@ -52,6 +54,11 @@ struct Options {
   int max_depth = raylab::BuildSettings{}.max_depth, leaf_size = raylab::BuildSettings{}.leaf_size;
 };
 
+// --cpu-time: the tracing timed by the process's CPU time instead of the wall clock. On a machine
+// shared with other work, a one-thread run's CPU time leaves out the time other processes held the
+// core (their effect on the caches remains); with more threads it adds the threads' times.
+bool g_cpu_time = false;
+
 // Embree's build qualities by the names --embree takes.
 const std::map<std::string, RTCBuildQuality> kEmbreeQualities{
     {"low", RTC_BUILD_QUALITY_LOW}, {"medium", RTC_BUILD_QUALITY_MEDIUM}, {"high", RTC_BUILD_QUALITY_HIGH}};
@@ -72,7 +79,7 @@ std::optional<std::pair<int, int>> parse_size(const std::string& text) {
 void add_options(CLI::App& app, Options& o) {
   app.option_defaults()->always_capture_default();
   const CLI::Range positive(1, std::numeric_limits<int>::max());
-  app.add_option("--mesh", o.mesh, "an OBJ file, or icosphere:LEVELS (20 * 4^LEVELS triangles)")->required();
+  app.add_option("--mesh", o.mesh, "an OBJ file, icosphere:LEVELS (20 * 4^LEVELS triangles) or subdivided:LEVELS:FILE (an OBJ file's triangles split in 4^LEVELS)")->required();
   app.add_option("--name", o.name, "the name of the output files")->required();
   app.add_option("--out", o.out_dir, "the output folder");
   app.add_option_function<std::string>(
@@ -112,6 +119,30 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--max-depth", o.max_depth,
                  "octree: the deepest level, or " + std::to_string(raylab::BuildSettings::kAutoDepth) + " for auto");
   app.add_option("--leaf-size", o.leaf_size, "octree and bvh: triangles per leaf");
+  app.add_flag("--cpu-time", g_cpu_time,
+               "time the tracing by the process's CPU time, not the wall clock (one-thread runs on a shared machine)");
+}
+
+// Every triangle split into four at its edges' midpoints, `levels` times (4^levels times the
+// triangles); `place` puts each new midpoint vertex (the icosphere projects it onto the sphere).
+template <class Place>
+void subdivide(TriangleMesh& m, int levels, Place place) {
+  for (int level = 0; level < levels; ++level) {
+    std::unordered_map<uint64_t, uint32_t> midpoints;
+    auto midpoint = [&](uint32_t a, uint32_t b) {
+      const uint64_t key = (uint64_t(std::min(a, b)) << 32) | std::max(a, b);
+      auto [it, inserted] = midpoints.try_emplace(key, uint32_t(m.vertices.size()));
+      if (inserted) m.vertices.push_back(place(0.5f * (m.vertices[a] + m.vertices[b])));
+      return it->second;
+    };
+    std::vector<glm::uvec3> finer;
+    finer.reserve(m.triangles.size() * 4);
+    for (const glm::uvec3& t : m.triangles) {
+      const uint32_t ab = midpoint(t.x, t.y), bc = midpoint(t.y, t.z), ca = midpoint(t.z, t.x);
+      finer.insert(finer.end(), {{t.x, ab, ca}, {t.y, bc, ab}, {t.z, ca, bc}, {ab, bc, ca}});
+    }
+    m.triangles = std::move(finer);
+  }
 }
 
 // An icosahedron subdivided `levels` times (20 * 4^levels triangles) on the unit sphere: a closed
@@ -125,28 +156,23 @@ TriangleMesh icosphere(int levels) {
                  {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
                  {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
   for (glm::vec3& v : m.vertices) v = glm::normalize(v);
-  for (int level = 0; level < levels; ++level) {
-    std::unordered_map<uint64_t, uint32_t> midpoints;
-    auto midpoint = [&](uint32_t a, uint32_t b) {
-      const uint64_t key = (uint64_t(std::min(a, b)) << 32) | std::max(a, b);
-      auto [it, inserted] = midpoints.try_emplace(key, uint32_t(m.vertices.size()));
-      if (inserted) m.vertices.push_back(glm::normalize(m.vertices[a] + m.vertices[b]));
-      return it->second;
-    };
-    std::vector<glm::uvec3> finer;
-    finer.reserve(m.triangles.size() * 4);
-    for (const glm::uvec3& t : m.triangles) {
-      const uint32_t ab = midpoint(t.x, t.y), bc = midpoint(t.y, t.z), ca = midpoint(t.z, t.x);
-      finer.insert(finer.end(), {{t.x, ab, ca}, {t.y, bc, ab}, {t.z, ca, bc}, {ab, bc, ca}});
-    }
-    m.triangles = std::move(finer);
-  }
+  subdivide(m, levels, [](const glm::vec3& v) { return glm::normalize(v); });
   return m;
 }
 
+// icosphere:LEVELS; subdivided:LEVELS:FILE, an OBJ file's triangles split 4^LEVELS ways in their
+// planes (the same surface with more, smaller triangles: the dragon at 1.6M triangles is
+// subdivided:2:dragon.obj); or an OBJ file.
 TriangleMesh load(const std::string& spec) {
-  const std::string prefix = "icosphere:";
-  if (spec.rfind(prefix, 0) == 0) return icosphere(std::stoi(spec.substr(prefix.size())));
+  const std::string sphere = "icosphere:", subdivided = "subdivided:";
+  if (spec.rfind(sphere, 0) == 0) return icosphere(std::stoi(spec.substr(sphere.size())));
+  if (spec.rfind(subdivided, 0) == 0) {
+    const size_t colon = spec.find(':', subdivided.size());
+    if (colon == std::string::npos) throw std::invalid_argument("expected subdivided:LEVELS:FILE, got " + spec);
+    TriangleMesh m = load_mesh(spec.substr(colon + 1));
+    subdivide(m, std::stoi(spec.substr(subdivided.size(), colon - subdivided.size())), [](const glm::vec3& v) { return v; });
+    return m;
+  }
   return load_mesh(spec);
 }
 
@@ -199,7 +225,18 @@ std::vector<Ray> strided(const std::vector<Ray>& rays, size_t n) {
   return out;
 }
 
+double process_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
 double seconds_of(const std::function<void()>& work) {
+  if (g_cpu_time) {
+    const double start = process_cpu_seconds();
+    work();
+    return process_cpu_seconds() - start;
+  }
   const auto start = std::chrono::steady_clock::now();
   work();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -107,17 +107,12 @@ uint32_t overlapped_octants(const TriangleMesh& mesh, uint32_t triangle, const B
                                   mesh.vertex(triangle, 2));
 }
 
-// A triangle's corners side by side: the build classifies every reference at every level, and
-// reading them through the index array from the mesh's shared vertices cost two dependent cache misses
-// per reference (about a fifth of a depth-8 build on dragon.obj, by perf samples).
-struct Corners {
-  glm::vec3 p[3];
-};
-
-uint32_t overlapped_octants(const Corners& t, const Bounds& box) {
-  return triangle_octant_overlaps(box, box.center(), t.p[0], t.p[1], t.p[2]);
+// The build classifies every reference at every level from the octree's corner rows (CornerRows):
+// reading them through the index array from the mesh's shared vertices cost two dependent cache
+// misses per reference (about a fifth of a depth-8 build on dragon.obj, by perf samples).
+uint32_t overlapped_octants(const CornerRows& t, const Bounds& box) {
+  return triangle_octant_overlaps(box, box.center(), t.corner(0), t.corner(1), t.corner(2));
 }
-
 
 // What a sample of subtrees holds at each depth, counted without building them (the size estimate in
 // Octree::build). `final_bytes` sums the finished tree's nodes and leaf references; counting stops
@@ -156,7 +151,10 @@ void count_subtree(const TriangleMesh& mesh, int max_depth, int leaf_size, const
 
 }  // namespace
 
-Octree::Octree(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std::move(mesh), settings) {
+Octree::Octree(MeshPtr mesh, const BuildSettings& settings, int leaf_lanes) : StructureBase(std::move(mesh), settings) {
+  if (leaf_lanes == 8 && !cpu_has_avx2()) throw std::invalid_argument("octree: 8 leaf lanes need a CPU with AVX2");
+  if (leaf_lanes != 0 && leaf_lanes != 4 && leaf_lanes != 8) throw std::invalid_argument("octree: leaf_lanes must be 0, 4 or 8");
+  leaf_lanes_ = leaf_lanes != 0 ? leaf_lanes : cpu_has_avx2() ? 8 : 4;
   if (settings.max_depth > kMaxDepth)  // the traversal stack is sized for kMaxDepth
     throw std::invalid_argument("octree max_depth must be <= " + std::to_string(kMaxDepth));
   automatic_depth_ = settings.max_depth == BuildSettings::kAutoDepth;
@@ -198,12 +196,18 @@ void Octree::build() {
   constexpr double kEstimateMargin = 1.125;  // refuse only an estimate this far over the budget
   constexpr size_t kPrefetchAhead = 8;  // references
 
-  check_budget(kNodeBytes + n * (kRefBytes + sizeof(Corners)), budget);
-  WorkArray<Corners> corners;
-  corners.resize(n);
+  check_budget(kNodeBytes + n * (kRefBytes + sizeof(CornerRows)), budget);
+  corners_ = make_huge_array<CornerRows>(n);
+  CornerRows* const corners = corners_.get();
+  const size_t corner_bytes = n * sizeof(CornerRows);
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 4096), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t t = r.begin(); t != r.end(); ++t)
-      corners[t] = {{mesh.vertex(t, 0), mesh.vertex(t, 1), mesh.vertex(t, 2)}};
+    for (uint32_t t = r.begin(); t != r.end(); ++t) {
+      CornerRows& rows = corners[t];
+      for (int c = 0; c < 3; ++c) {
+        const glm::vec3 p = mesh.vertex(t, c);
+        rows.p[c][0] = p.x, rows.p[c][1] = p.y, rows.p[c][2] = p.z, rows.p[c][3] = 0.0f;
+      }
+    }
   });
   nodes_.assign(1, OctreeNode{});
   // This level's nodes and triangle references (run after run), and the next level's.
@@ -234,7 +238,7 @@ void Octree::build() {
       const size_t finished = level_base * sizeof(OctreeNode) + triangles_.size() * kRefBytes;
       SubtreeCounts counts;
       const double limit = double(budget) * kEstimateMargin;
-      const double held_throughout = double(finished + corners.bytes());
+      const double held_throughout = double(finished + corner_bytes);
       counts.cap = held_throughout < limit ? size_t((limit - held_throughout) / scale) : 0;
       tbb::parallel_for(size_t(0), kEstimateSamples, [&](size_t i) {
         const size_t j = (2 * i + 1) * level.size() / (2 * kEstimateSamples);
@@ -260,7 +264,7 @@ void Octree::build() {
             scale * double(counts.refs[d] * (kRefBytes + 1) + (previous_refs + counts.refs[d + 1]) * kRefBytes +
                            (previous_nodes + counts.nodes[d] + counts.nodes[d + 1]) * sizeof(PendingNode) +
                            counts.nodes[d] * sizeof(Placement));
-        peak = std::max(peak, before + done + working + double(corners.bytes()));
+        peak = std::max(peak, before + done + working + double(corner_bytes));
       }
       if (peak > limit)
         throw BuildError("octree build would need more than " + std::to_string(budget) +
@@ -281,7 +285,7 @@ void Octree::build() {
     };
     auto held = [&] {
       return bytes_of(nodes_) + bytes_of(triangles_) + level.bytes() + next_level.bytes() + refs.bytes() +
-             next.bytes() + octants.bytes() + placement.bytes() + corners.bytes();
+             next.bytes() + octants.bytes() + placement.bytes() + corner_bytes;
     };
 
     // 1. Classify: the octants every triangle of a splitting node overlaps, and what each node
@@ -310,7 +314,7 @@ void Octree::build() {
           if (k + kPrefetchAhead < refs.size()) {
             const char* ahead = reinterpret_cast<const char*>(&corners[refs[k + kPrefetchAhead]]);
             __builtin_prefetch(ahead);
-            __builtin_prefetch(ahead + sizeof(Corners) - 1);
+            __builtin_prefetch(ahead + sizeof(CornerRows) - 1);
           }
           octants[k] = uint8_t(overlapped_octants(corners[refs[k]], box));
         };
@@ -462,7 +466,9 @@ std::vector<BoxInfo> Octree::boxes() const {
   return out;
 }
 
-size_t Octree::memory_bytes() const { return bytes_of(nodes_) + bytes_of(triangles_); }
+size_t Octree::memory_bytes() const {
+  return bytes_of(nodes_) + bytes_of(triangles_) + mesh_->triangle_count() * sizeof(CornerRows);
+}
 
 std::unique_ptr<Structure> build_octree(MeshPtr mesh, const BuildSettings& settings) {
   return std::make_unique<Octree>(std::move(mesh), settings);

@@ -266,6 +266,51 @@ TEST(Octree, EqualsBruteForceOnShippedMeshes) {
   }
 }
 
+// The watertight leaf test takes 8 triangles at once with AVX2 and 4 with SSE: both give brute
+// force's hits, and the same counts (every triangle of a leaf the ray has not tested is tested,
+// whatever the packets' size), with mailboxing at work (leaves of one triangle, deep).
+TEST(Octree, FourAndEightLeafLanesEqualBruteForceAndCountAlike) {
+  std::vector<int> widths{4};
+  if (cpu_has_avx2()) widths.push_back(8);
+  for (const char* name : {"bunny.obj", "plane_holes.obj", "spot_low_resolution.obj"}) {
+    SCOPED_TRACE(name);
+    const MeshPtr mesh = shipped(name);
+    const auto reference = build(mesh, StructureKind::None);
+    for (const auto& [depth, leaf_size] : {std::pair{BuildSettings::kAutoDepth, 8}, std::pair{9, 1}}) {
+      BuildSettings settings;
+      settings.kind = StructureKind::Octree;
+      settings.max_depth = depth;
+      settings.leaf_size = leaf_size;
+      std::vector<std::unique_ptr<Octree>> octrees;
+      for (int lanes : widths) octrees.push_back(std::make_unique<Octree>(mesh, settings, lanes));
+      for (const Ray& ray : random_rays(*mesh, 800, 21)) {
+        TraversalStats first_closest, first_any;
+        for (size_t i = 0; i < octrees.size(); ++i) {
+          const Octree& octree = *octrees[i];
+          expect_same_closest(*reference, octree, ray);
+          TraversalStats closest, any;
+          Hit h;
+          octree.closest(ray, h, closest);
+          EXPECT_EQ(reference->any(ray), octree.any(ray, any));
+          const RayStory story = octree.story(ray);
+          EXPECT_EQ(story.stats.triangle_tests, story.triangles.size());
+          EXPECT_EQ(story.stats.triangle_tests, closest.triangle_tests);
+          if (i == 0) {
+            first_closest = closest, first_any = any;
+            continue;
+          }
+          EXPECT_EQ(closest.triangle_tests, first_closest.triangle_tests);
+          EXPECT_EQ(closest.box_tests, first_closest.box_tests);
+          EXPECT_EQ(closest.nodes_visited, first_closest.nodes_visited);
+          EXPECT_EQ(any.triangle_tests, first_any.triangle_tests);
+          EXPECT_EQ(any.nodes_visited, first_any.nodes_visited);
+        }
+      }
+    }
+  }
+  EXPECT_THROW(Octree(shipped("bunny.obj"), BuildSettings{}, 5), std::invalid_argument);
+}
+
 // Axis-parallel rays lying exactly in the splitting planes of the octree: the slab test meets
 // 0 * inf there, and the hits sit on shared box faces.
 TEST(Octree, AxisRaysInSplittingPlanesEqualBruteForce) {
