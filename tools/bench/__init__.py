@@ -25,7 +25,7 @@ MESH_DIR = ROOT / "addon" / "raylab" / "meshes"
 
 FULL = {
     "meshes": [("goathead", "goathead.obj"), ("bunny_hr", "bunny_hr.obj"), ("dragon", "dragon.obj"),
-               ("icosphere", "icosphere:8")],
+               ("icosphere", "icosphere:8"), ("dragon_1600k", "subdivided:2:dragon.obj")],
     "native": ["--camera", "512x384", "--random-rays", "100000", "--export-rays", "20000", "--reps", "5",
                "--build-reps", "3", "--rep-seconds", "0.08", "--threads", "1,2", "--embree", "medium,high"],
     "blender_reps": 3,

@@ -24,12 +24,22 @@ def bench_binary(build_dir):
     return path
 
 
+def mesh_spec(source):
+    """raylab_bench's --mesh for a configured source: icosphere:LEVELS as it is; a shipped OBJ file, or
+    subdivided:LEVELS:FILE (its triangles split 4^LEVELS ways: the dragon at 1.6M), from MESH_DIR."""
+    if source.startswith("icosphere:"):
+        return source
+    if source.startswith("subdivided:"):
+        levels, file = source[len("subdivided:"):].split(":", 1)
+        return f"subdivided:{levels}:{MESH_DIR / file}"
+    return str(MESH_DIR / source)
+
+
 def run_native(config, binary, data_dir):
     results = {}
     for name, source in config["meshes"]:
-        mesh = source if source.startswith("icosphere:") else str(MESH_DIR / source)
         log(f"raylab_bench {name}")
-        subprocess.run([str(binary), "--mesh", mesh, "--name", name, "--out", str(data_dir), *config["native"]],
+        subprocess.run([str(binary), "--mesh", mesh_spec(source), "--name", name, "--out", str(data_dir), *config["native"]],
                        check=True)
         results[name] = json.loads((data_dir / f"{name}.json").read_text())
         add_ratios(results[name])
