@@ -92,6 +92,15 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
 // stays x86-64-v2. Only "avx2", never "fma": with FMA enabled GCC may contract a product and a sum
 // into one rounding (-ffp-contract=fast is its default), and every lane must round as the scalar
 // test does.
+// Embree's form, one FMA per slab (t = lo * inv - (o + q) * inv, the origin term per ray, the pad q
+// widened by 2^-23 |o| to cover that term's rounding, a zero direction component given the finite
+// inv 2^17 max|inv| so that axis-parallel rays still cull, the exact kernel kept for rays where a term
+// would overflow or the widening pass the pad; a target("avx2,fma") walk under -ffp-contract=off)
+// visited the same nodes but was no faster: BVH/Embree of the FMA walk over this one, one binary
+// switching per run, interleaved, one core, medians of 6 (goathead, dragon, bunny_hr, icosphere:8):
+// camera closest 0.84-1.16, any 0.87-0.99, random closest 0.93-1.03, any 0.85-0.95. As visit_children
+// says, the test waits on the node's load, not on arithmetic (and the FMA form keeps nine per-ray
+// vectors live instead of seven).
 struct Box8Ray {
   __m256 origin[3], inv_dir[3];
   __m256 tmin, pad;
