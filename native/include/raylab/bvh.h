@@ -282,20 +282,8 @@ class Bvh final : public StructureBase<Bvh> {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));
       alignas(32) float t[8], u[8], v[8];
-      int mask = Width::triangles(triw, p, lanes, tester.ray.tmin, best.t, t, u, v);
-      if constexpr (Recorder::kActive)
-        for (int lane = 0; lane < lanes; ++lane) record.triangle(p[lane / 4].triangle[lane % 4], (mask >> lane) & 1);
-      for (; mask != 0; mask &= mask - 1) {
-        const int lane = std::countr_zero(unsigned(mask));
-        const uint32_t triangle = p[lane / 4].triangle[lane % 4];
-        if (closer({t[lane], u[lane], v[lane]}, triangle, best)) {
-          best.t = t[lane];
-          best.u = u[lane];
-          best.v = v[lane];
-          best.triangle = triangle;
-          found = true;
-        }
-      }
+      const int mask = Width::triangles(triw, p, lanes, tester.ray.tmin, best.t, t, u, v);
+      found |= take_closest_lanes(p, lanes, mask, t, u, v, record, best);
     }
     return found;
   }
@@ -314,7 +302,7 @@ class Bvh final : public StructureBase<Bvh> {
       if constexpr (Recorder::kActive) {
         // As the scalar loop: every triangle up to the first hit is tested.
         const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
-        for (int lane = 0; lane < tested; ++lane) record.triangle(p[lane / 4].triangle[lane % 4], (mask >> lane) & 1);
+        for (int lane = 0; lane < tested; ++lane) record.triangle(packet_triangle(p, lane), (mask >> lane) & 1);
       }
       if (mask != 0) return true;
     }

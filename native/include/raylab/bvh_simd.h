@@ -11,6 +11,7 @@
 
 #include <immintrin.h>
 
+#include <bit>
 #include <cstdint>
 
 namespace raylab {
@@ -50,6 +51,33 @@ struct alignas(16) TrianglePacket {
   uint32_t triangle[4];
 };
 static_assert(sizeof(TrianglePacket) == 160);
+
+// The triangle in lane `lane` of a run of consecutive packets (lanes 0-3 the first packet's).
+inline uint32_t packet_triangle(const TrianglePacket* packets, int lane) { return packets[lane / 4].triangle[lane % 4]; }
+
+// One packet test's hits (`mask`, with their t, u, v) folded into `best` in lane order, as the scalar
+// loop folds them (closer(): the nearer t, a tie to the lower triangle index), after every tested lane is
+// recorded. The BVH's and the octree's leaves share it, so that their counters and stories agree.
+template <class Recorder>
+[[gnu::always_inline]] inline bool take_closest_lanes(const TrianglePacket* packets, int lanes, int mask,
+                                                      const float* t, const float* u, const float* v,
+                                                      Recorder& record, Hit& best) {
+  if constexpr (Recorder::kActive)
+    for (int lane = 0; lane < lanes; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
+  bool found = false;
+  for (; mask != 0; mask &= mask - 1) {
+    const int lane = std::countr_zero(unsigned(mask));
+    const uint32_t triangle = packet_triangle(packets, lane);
+    if (closer({t[lane], u[lane], v[lane]}, triangle, best)) {
+      best.t = t[lane];
+      best.u = u[lane];
+      best.v = v[lane];
+      best.triangle = triangle;
+      found = true;
+    }
+  }
+  return found;
+}
 
 // The per-ray constants of the 4-box test.
 struct Box4Ray {

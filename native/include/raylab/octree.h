@@ -184,20 +184,8 @@ class Octree final : public StructureBase<Octree> {
     walk(ray, record, [&] { return best.t; }, [&](const OctreeNode& leaf) {
       return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
         alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-        int mask = test_packets(tester, ray4, packets, lanes, best.t, t, u, v);
-        if constexpr (Recorder::kActive)
-          for (int lane = 0; lane < lanes; ++lane) record.triangle(triangle_of(packets, lane), (mask >> lane) & 1);
-        for (; mask != 0; mask &= mask - 1) {
-          const int lane = std::countr_zero(unsigned(mask));
-          const uint32_t triangle = triangle_of(packets, lane);
-          if (closer({t[lane], u[lane], v[lane]}, triangle, best)) {
-            best.t = t[lane];
-            best.u = u[lane];
-            best.v = v[lane];
-            best.triangle = triangle;
-            found = true;
-          }
-        }
+        const int mask = test_packets(tester, ray4, packets, lanes, best.t, t, u, v);
+        found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
         return false;
       });
     });
@@ -223,7 +211,7 @@ class Octree final : public StructureBase<Octree> {
         if constexpr (Recorder::kActive) {
           // As the scalar loop: every triangle up to the first hit is tested.
           const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
-          for (int lane = 0; lane < tested; ++lane) record.triangle(triangle_of(packets, lane), (mask >> lane) & 1);
+          for (int lane = 0; lane < tested; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
         }
         return occluded = mask != 0;
       });
@@ -295,7 +283,6 @@ class Octree final : public StructureBase<Octree> {
     return test(packets, lanes);
   }
 
-  static uint32_t triangle_of(const TrianglePacket* packets, int lane) { return packets[lane / 4].triangle[lane % 4]; }
 
   // The first `lanes` triangles of `packets` against the ray, between tmin and `tmax`: the mask of
   // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE). Measured
