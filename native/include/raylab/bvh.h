@@ -299,12 +299,7 @@ class Bvh final : public StructureBase<Bvh> {
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));
       alignas(32) float t[8], u[8], v[8];
       const int mask = Width::triangles(triw, p, lanes, tester.ray.tmin, tester.ray.tmax, t, u, v);
-      if constexpr (Recorder::kActive) {
-        // As the scalar loop: every triangle up to the first hit is tested.
-        const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
-        for (int lane = 0; lane < tested; ++lane) record.triangle(packet_triangle(p, lane), (mask >> lane) & 1);
-      }
-      if (mask != 0) return true;
+      if (record_any_lanes(p, lanes, mask, record)) return true;
     }
     return false;
   }

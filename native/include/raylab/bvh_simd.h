@@ -79,6 +79,17 @@ template <class Recorder>
   return found;
 }
 
+// An any-hit packet test's lanes recorded as the scalar loop tests them: every triangle up to the first
+// hit. Returns whether a lane hit.
+template <class Recorder>
+[[gnu::always_inline]] inline bool record_any_lanes(const TrianglePacket* packets, int lanes, int mask, Recorder& record) {
+  if constexpr (Recorder::kActive) {
+    const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
+    for (int lane = 0; lane < tested; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
+  }
+  return mask != 0;
+}
+
 // The per-ray constants of the 4-box test.
 struct Box4Ray {
   __m128 origin[3], inv_dir[3];

@@ -208,12 +208,7 @@ class Octree final : public StructureBase<Octree> {
       return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
         alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
         const int mask = test_packets(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
-        if constexpr (Recorder::kActive) {
-          // As the scalar loop: every triangle up to the first hit is tested.
-          const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
-          for (int lane = 0; lane < tested; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
-        }
-        return occluded = mask != 0;
+        return occluded = record_any_lanes(packets, lanes, mask, record);
       });
     });
     return occluded;
@@ -282,7 +277,6 @@ class Octree final : public StructureBase<Octree> {
     if (lanes > 4) gather(packets[1]);
     return test(packets, lanes);
   }
-
 
   // The first `lanes` triangles of `packets` against the ray, between tmin and `tmax`: the mask of
   // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE). Measured
