@@ -1,10 +1,12 @@
 """Blender-side helpers of the GUI scripts (they run inside a real Blender window under xvfb-run):
 find the 3D viewport, open its sidebar on the raylab tab, take a window screenshot, run steps one timer
-tick apart."""
+tick apart, start F12."""
 import json
 import os
 import shutil
 import subprocess
+import sys
+import threading
 import traceback
 from collections import namedtuple
 
@@ -78,6 +80,36 @@ def click_raylab_tab():
     area.tag_redraw()
 
 
+# A Blender on Python 3.11 or older crashes when an operator called inside a context override looks
+# the context up while another thread holds the interpreter (ARCHITECTURE.md, "Blender's threads";
+# tools/blender_override_race.py shows it with no add-on). Python 3.12 made the check per thread.
+OVERRIDES_SAFE_WITH_THREADS = sys.version_info >= (3, 12)
+
+
+def other_threads_may_run_python():
+    """A render job (whose engine runs Python) or a Python thread (a comparison's worker) is running."""
+    return bpy.app.is_job_running('RENDER') or threading.active_count() > 1
+
+
+def overrides_safe():
+    return OVERRIDES_SAFE_WITH_THREADS or not other_threads_may_run_python()
+
+
+def start_f12():
+    """F12 as a script runs it from a timer: render.render INVOKE_DEFAULT in the timer's own context,
+    never inside an override, as the render's job thread enters Python while the operator still runs."""
+    return bpy.ops.render.render('INVOKE_DEFAULT')
+
+
+def call_in_main_window(operator, *args, **properties):
+    """operator(*args, **properties) in the first window's largest area when overrides are safe, else
+    in the timer's own context (its window is the first one)."""
+    if overrides_safe():
+        with bpy.context.temp_override(**main_window_override()):
+            return operator(*args, **properties)
+    return operator(*args, **properties)
+
+
 def main_window_override():
     """temp_override arguments for the first window's largest area and its main region."""
     window = bpy.context.window_manager.windows[0]
@@ -93,8 +125,12 @@ def screenshot(path, window=None):
     under Xvfb with Mesa's llvmpipe; Blender 3.4 and the X server agree."""
     window = window or bpy.context.window_manager.windows[0]
     area = max(window.screen.areas, key=lambda a: a.width * a.height)
-    with bpy.context.temp_override(window=window, area=area):
+    if overrides_safe():
+        with bpy.context.temp_override(window=window, area=area):
+            bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=2)
+    elif bpy.context.window == window:  # a timer's context window: no override needed
         bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=2)
+    # else: the window as it was last drawn (a step is 1.5 s after the last one)
     if shutil.which("xwd") is None or not os.environ.get("DISPLAY"):
         with bpy.context.temp_override(window=window, area=area):
             bpy.ops.screen.screenshot(filepath=path)

@@ -30,6 +30,7 @@ os.makedirs(OUT_DIR, exist_ok=True)
 report = {}
 WATCHDOG_SECONDS = 500
 TIME_LIMIT = 5.0
+WHEEL_STEPS = 80  # more than the sidebar's height needs: the view stops at its end
 ticks = []
 
 
@@ -56,11 +57,15 @@ def tick():
 
 
 def scroll_sidebar_down():
-    """The Structure Comparison panel comes last, below the level's panels: wheel the sidebar down."""
-    window, area, _, sidebar = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=sidebar):
-        for _ in range(30):
-            bpy.ops.view2d.scroll_down(page=True)
+    """The Structure Comparison panel comes last, below the level's panels: wheel the sidebar down, as a
+    user does (simulated wheel events, handled once this step returns). Not view2d.scroll_down inside an
+    override: while the comparison's worker runs that could crash Blender 3.4 (blender_window.py)."""
+    window, _, _, sidebar = view3d()
+    x, y = sidebar.x + sidebar.width // 2, sidebar.y + sidebar.height // 2
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    for _ in range(WHEEL_STEPS):
+        window.event_simulate(type='WHEELDOWNMOUSE', value='PRESS', x=x, y=y)
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=y)  # no tooltip in the screenshots
 
 
 def compare_from_the_sidebar(**properties):
@@ -91,6 +96,11 @@ def while_running():
     window, _, _, sidebar = view3d()
     report["sidebar"], report["window_height"] = rect(sidebar), window.height
     scroll_sidebar_down()
+
+
+def shoot_running():
+    from raylab.blender import compare
+    report["running"]["still_running"] = compare.running_job() is not None
     screenshot(os.path.join(OUT_DIR, "compare_running.png"))
 
 
@@ -117,7 +127,6 @@ def after_cancel():
     report["cancelled"] = dict(job=compare.running_job() is not None, workers=workers(),
                                stored=compare.COMPARISON in scene, skipped=compare.SKIPPED in scene)
     scroll_sidebar_down()
-    screenshot(os.path.join(OUT_DIR, "compare_cancelled.png"))
 
 
 def start_limited():
@@ -131,7 +140,6 @@ def after_limited():
                              compared=list(scene.get(compare.COMPARISON, {}).keys()),
                              skipped={k: v for k, v in scene.get(compare.SKIPPED, {}).items()})
     scroll_sidebar_down()
-    screenshot(os.path.join(OUT_DIR, "compare_skipped.png"))
 
 
 def job_over():
@@ -139,8 +147,13 @@ def job_over():
     return compare.running_job() is None
 
 
-STEPS = [open_race, click_raylab_tab, scroll_sidebar_down, start_unlimited, lambda: None, while_running, press_escape,
-         wait_until(job_over, 120.0), after_cancel, start_limited, wait_until(job_over, 400.0), after_limited]
+def shooter(name):
+    return lambda: screenshot(os.path.join(OUT_DIR, name))
+
+
+STEPS = [open_race, click_raylab_tab, scroll_sidebar_down, start_unlimited, lambda: None, while_running,
+         shoot_running, press_escape, wait_until(job_over, 120.0), after_cancel, shooter("compare_cancelled.png"),
+         start_limited, wait_until(job_over, 400.0), after_limited, shooter("compare_skipped.png")]
 
 
 def run_steps():

@@ -79,9 +79,7 @@ def start_render():
     report["render_structure"] = scene.raylab_render.structure
     if "raylab_last_render" in scene:
         del scene["raylab_last_render"]
-    v = blender_window.view3d()
-    with bpy.context.temp_override(window=v.window, area=v.area, region=v.region):
-        bpy.ops.render.render('INVOKE_DEFAULT')
+    blender_window.start_f12()
 
 
 def render_window():

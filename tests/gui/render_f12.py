@@ -46,8 +46,7 @@ def start_render():
         bpy.context.preferences.view.render_display_type = 'WINDOW'
         scene = bpy.context.scene
         scene.render.engine = 'RAYLAB'
-        with bpy.context.temp_override(**blender_window.main_window_override()):
-            bpy.ops.render.render('INVOKE_DEFAULT')
+        blender_window.start_f12()
         bpy.app.timers.register(wait_for_render, first_interval=0.5)
     except Exception:
         report["errors"].append(traceback.format_exc())

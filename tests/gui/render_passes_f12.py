@@ -44,8 +44,7 @@ def start_render():
         passes.use_heat = True
         passes.heat_pass = next(n for n, i in raylab.COST_PASS_INFO.items() if i["counter"] == "triangle_tests")
         passes.heat_maximum = HEAT_MAXIMUM
-        with bpy.context.temp_override(**blender_window.main_window_override()):
-            bpy.ops.render.render('INVOKE_DEFAULT')
+        blender_window.start_f12()
         bpy.app.timers.register(wait_for_render, first_interval=0.5)
     except Exception:
         report["errors"].append(traceback.format_exc())

@@ -57,9 +57,8 @@ def poke(when):
         note(f"poke {when}")
     try:
         if "ops" in POKE:
-            with bpy.context.temp_override(**blender_window.main_window_override()):
-                bpy.ops.object.select_all(action='TOGGLE')
-                bpy.ops.object.select_all(action='TOGGLE')
+            blender_window.call_in_main_window(bpy.ops.object.select_all, action='TOGGLE')
+            blender_window.call_in_main_window(bpy.ops.object.select_all, action='TOGGLE')
         if "prop" in POKE:
             bpy.context.scene.raylab.fade = not bpy.context.scene.raylab.fade
         report["operator_calls"] += 1
@@ -69,8 +68,7 @@ def poke(when):
 
 def start_render():
     try:
-        with bpy.context.temp_override(**blender_window.main_window_override()):
-            bpy.ops.render.render('INVOKE_DEFAULT')
+        blender_window.start_f12()
         report["renders_started"] += 1
         state["started_at"] = time.monotonic()
         return wait_for_render()

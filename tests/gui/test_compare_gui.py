@@ -36,6 +36,7 @@ def test_the_window_answers_while_the_comparison_runs(session):
     running = session["running"]
     assert running["job"] and running["workers"] == 1
     assert running["structure"] == "none", "brute force on the dragon is still rendering"
+    assert running["still_running"], "compare_running.png was taken while the comparison ran"
     # A timer kept firing during the run (a render on the main thread would let none fire until it ended).
     assert running["ticks"] >= 2
 

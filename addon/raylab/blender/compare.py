@@ -74,6 +74,10 @@ class CompareJob:
         self._thread = threading.Thread(target=self.run, name="raylab compare", daemon=True)
         self._thread.start()
 
+    @property
+    def started(self):
+        return self._thread is not None
+
     def cancel(self):
         self._cancel.set()
 
@@ -173,11 +177,18 @@ def result_line(result):
 
 _running = None  # the job the modal operator watches; the panel shows its progress
 
-
 def running_job():
     return _running
 
 
+# Why the worker starts late and is joined early: a Blender on Python 3.11 or older (Debian 12's 3.4, the
+# official 4.x builds) crashes within seconds, with no add-on at all (ARCHITECTURE.md, "Blender's
+# threads"), when an operator called inside a context override looks the context up while another
+# thread holds the interpreter: Blender then reads the override's dict without the lock, as Python 3.11
+# reports the other thread's state as the current one. So the worker, which runs Python between its
+# native calls, starts at the modal timer's first tick, once the operator a script may have called with
+# an override has returned, and is joined before the results are stored (storing may call operators:
+# the heat maps split an area).
 class StructureJobOperator:
     """The operator side of a CompareJob, for every operator that renders once per structure (Compare
     Structures, the heat maps): execute() runs the job at once (scripts), invoke() on a worker thread
@@ -223,9 +234,8 @@ class StructureJobOperator:
         wm.modal_handler_add(self)
         wm.progress_begin(0.0, 1.0)
         _running = job
-        job.start()
         self._show(context)
-        return {'RUNNING_MODAL'}
+        return {'RUNNING_MODAL'}  # the worker starts at the first timer tick (see above the class)
 
     def modal(self, context, event):
         job = self._job
@@ -235,11 +245,15 @@ class StructureJobOperator:
             return {'RUNNING_MODAL'}
         if event.type != 'TIMER':
             return {'PASS_THROUGH'}
+        if not job.started:
+            job.start()
+            return {'PASS_THROUGH'}
         self._report_results(job.results[self._reported:])
         self._reported = len(job.results)
         if not job.done:
             self._show(context)
             return {'PASS_THROUGH'}
+        job.join()  # its last Python lines too: _finish may call operators (see above the class)
         self._end(context)
         if job.cancelled:
             self.report({'INFO'}, f"raylab: cancelled ({self.activity}); the previous results are kept")
