@@ -7,7 +7,11 @@ Back in the automatic suite: with both steps it passed 8 of 8 separate runs on B
 whole Debian 13 GUI suites (2026-11-30, machine load 5 to 7) and 1 of 1 on 3.4, after 6 of 6 on 4.3
 and 4 of 4 on 3.4 the day before. One earlier run inside the whole Debian 13 suite ended without its
 report, its output not kept; if this test fails again, its assertion carries the tail of Blender's
-stderr (faulthandler's stacks)."""
+stderr (faulthandler's stacks). That is how the next failure, in CI on 3.4, was found to be a segfault
+and not the lock-up: Blender on Python 3.11 crashes when an operator runs inside a context override
+while the render's thread holds the interpreter (blender_window.py, tools/blender_override_race.py), so
+the script starts F12 and pokes in the timer's own context. After that: 4 of 4 runs alone and 4 of 4
+under gdb on 3.4 (3 of 4 had crashed under gdb before), and both whole GUI suites passed."""
 import json
 import os
 import subprocess
