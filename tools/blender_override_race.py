@@ -3,7 +3,7 @@ override while another Python thread runs; no add-on is needed. Blender looks co
 override's dict without taking the interpreter lock when Python says a thread state is current, and
 Python 3.11 keeps one global "current" state: the other thread's. Python 3.12 made it per thread. So
 Debian 12's Blender 3.4 (Python 3.11) crashes and Debian 13's Blender 4.3 (Python 3.13) does not; the
-official builds of Blender 4.1 to 4.4 bundle Python 3.11 and should behave as 3.4 does (not tried here).
+official builds of Blender 4.2 to 4.5 bundle Python 3.11 and should behave as 3.4 does (not tried here).
 
     xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup FILE.blend \
         --python tools/blender_override_race.py -- MODE REPORT.json

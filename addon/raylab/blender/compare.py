@@ -182,7 +182,7 @@ def running_job():
 
 
 # Why the worker starts late and is joined early: a Blender on Python 3.11 or older (Debian 12's 3.4, the
-# official 4.x builds) crashes within seconds, with no add-on at all (ARCHITECTURE.md, "Blender's
+# official 4.2-4.5 builds) crashes within seconds, with no add-on at all (ARCHITECTURE.md, "Blender's
 # threads"), when an operator called inside a context override looks the context up while another
 # thread holds the interpreter: Blender then reads the override's dict without the lock, as Python 3.11
 # reports the other thread's state as the current one. So the worker, which runs Python between its
