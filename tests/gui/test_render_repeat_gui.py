@@ -10,7 +10,7 @@ report, its output not kept; if this test fails again, its assertion carries the
 stderr (faulthandler's stacks). That is how the next failure, in CI on 3.4, was found to be a segfault
 and not the lock-up: Blender on Python 3.11 crashes when an operator runs inside a context override
 while the render's thread holds the interpreter (blender_window.py, tools/blender_override_race.py), so
-the script starts F12 and pokes in the timer's own context. After that: 4 of 4 runs alone and 4 of 4
+the script starts F12 and pokes in the timer's own context. After that: 4 of 4 runs outside pytest and 4 of 4
 under gdb on 3.4 (3 of 4 had crashed under gdb before), and both whole GUI suites passed."""
 import json
 import os
