@@ -177,6 +177,7 @@ def result_line(result):
 
 _running = None  # the job the modal operator watches; the panel shows its progress
 
+
 def running_job():
     return _running
 
