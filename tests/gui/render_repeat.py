@@ -10,11 +10,19 @@ while the main thread was inside a Python draw; then every bpy.ops call fails wi
 data in this state (drawing/rendering)". RAYLAB_SLOW_DRAW_MS=N adds N ms of pure-Python work to three
 headers that redraw during a render, which makes that race likely: at 30 ms it locked Blender at the
 2nd render without render_engine's guard.
+
+The pokes while a render runs happen while raylab's engine is inside render(), at least once per
+render, never while Blender builds, evaluates or frees the render's depsgraph on the job thread: an
+edit then is Blender's own race, whatever the engine (every edit tags every depsgraph of the file, the
+render's too, and nothing locks them). CI met it once on 4.3: Blender aborted on "Attempt to free
+nullptr pointer"; the core showed the job thread in RE_engine_render freeing its depsgraph, on a node
+tree copy whose node runtime had a null vector (ARCHITECTURE.md, "Blender's threads").
 """
 import faulthandler
 import json
 import os
 import sys
+import threading
 import time
 import traceback
 
@@ -26,11 +34,19 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.p
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import blender_window  # noqa: E402
 import raylab  # noqa: E402
+from raylab.blender import render_engine  # noqa: E402
 
 REPORT, RENDERS = os.path.abspath(sys.argv[sys.argv.index("--") + 1]), int(sys.argv[sys.argv.index("--") + 2])
 RENDER_SECONDS_MAX = 120.0  # one small render takes well under a second; a stuck one never ends
-report = {"renders_started": 0, "renders_finished": 0, "operator_calls": 0, "errors": []}
+report = {"renders_started": 0, "renders_finished": 0, "operator_calls": 0, "renders_poked_while_rendering": 0,
+          "errors": []}
 state = {"started_at": 0.0}
+# Whether raylab's engine is inside render(): the job thread does not leave it while a poke runs
+# (engine_lock), and waits there until one poke has run (poked_while_rendering), up to POKE_WAIT_SECONDS.
+engine = {"inside_render": False}
+engine_lock = threading.Lock()
+poked_while_rendering = threading.Event()
+POKE_WAIT_SECONDS = 5.0
 
 
 def finish():
@@ -86,7 +102,15 @@ def wait_for_render():
                 report["errors"].append(f"render {report['renders_started']} never ended")
                 finish()
                 return None
-            poke("while rendering")
+            if engine_lock.acquire(blocking=False):
+                try:
+                    if engine["inside_render"]:
+                        poke("while rendering")
+                        if not poked_while_rendering.is_set():
+                            report["renders_poked_while_rendering"] += 1
+                            poked_while_rendering.set()
+                finally:
+                    engine_lock.release()
             bpy.app.timers.register(wait_for_render, first_interval=0.05)
             return None
         report["renders_finished"] += 1
@@ -145,6 +169,22 @@ def note_render_pre(*args):
     note("render_pre")
 
 
+def poked_inside(render):
+    """The engine's render(), during which (and only then) the pokes of a running render happen."""
+    def wrapper(self, depsgraph):
+        with engine_lock:
+            poked_while_rendering.clear()
+            engine["inside_render"] = True
+        try:
+            return render(self, depsgraph)
+        finally:
+            poked_while_rendering.wait(POKE_WAIT_SECONDS)  # lets go of the interpreter meanwhile
+            with engine_lock:  # a poke that runs now ends before Blender frees the render's depsgraph
+                engine["inside_render"] = False
+    wrapper.__name__ = render.__name__
+    return wrapper
+
+
 def noting(method):
     """The engine's `method`, noting its calls; the same parameters, which Blender counts."""
     if method.__name__ == "render":
@@ -170,11 +210,10 @@ bpy.app.handlers.render_pre.append(note_render_pre)
 bpy.app.handlers.render_post.append(lambda *args: note("render_post"))
 if NOTE_EVENTS:
     bpy.app.handlers.render_init.append(lambda *args: note("render_init"))
-    from raylab.blender import render_engine
     for name in ("render", "update_render_passes"):
         setattr(render_engine.RaylabRenderEngine, name, noting(getattr(render_engine.RaylabRenderEngine, name)))
+render_engine.RaylabRenderEngine.render = poked_inside(render_engine.RaylabRenderEngine.render)
 if os.environ.get("RAYLAB_NO_ERROR_SET"):  # to find whether RenderEngine.error_set plays a part in a crash
-    from raylab.blender import render_engine
     render_engine.RaylabRenderEngine.error_set = lambda self, message: None
 if SLOW_DRAW_MS:
     for header in (bpy.types.STATUSBAR_HT_header, bpy.types.IMAGE_HT_header, bpy.types.VIEW3D_HT_header):
