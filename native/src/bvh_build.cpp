@@ -292,6 +292,9 @@ class Builder {
     if (!can_bin || depth >= kMaxSahDepth) return n <= max_leaf_size_ ? begin : median(begin, end, left_info, right_info);
     if (n <= kObjectSweepMax) return sweep_objects(info, begin, end, left_info, right_info);
 
+    // Binning even and odd primitives into two sets of bins, merged after (neighbours often share a
+    // bin, and each update waits for the last one's store), measured 1.00-1.03x the build time (dragon
+    // 1.6M, one core, medians of 5 interleaved runs of 5 builds, nodes from 64 or 256 primitives): not kept.
     const Bins bins = reduce_range(begin, end, Bins(), [&](uint32_t b, uint32_t e) {
       Bins r;
       alignas(16) int32_t index[4];
