@@ -13,8 +13,8 @@ headers that redraw during a render, which makes that race likely: at 30 ms it l
 
 The pokes while a render runs happen while raylab's engine is inside render(), at least once per
 render, never while Blender builds, evaluates or frees the render's depsgraph on the job thread: an
-edit then is Blender's own race, whatever the engine (every edit tags every depsgraph of the file, the
-render's too, and nothing locks them). CI met it once on 4.3: Blender aborted on "Attempt to free
+edit then is Blender's own race, in its code around any engine's render() (every edit tags every
+depsgraph of the file, the render's too, and nothing locks them; seen with raylab's engine only). CI met it once on 4.3: Blender aborted on "Attempt to free
 nullptr pointer"; the core showed the job thread in RE_engine_render freeing its depsgraph, on a node
 tree copy whose node runtime had a null vector (ARCHITECTURE.md, "Blender's threads").
 """
@@ -220,6 +220,8 @@ if SLOW_DRAW_MS:
         header.append(slow_draw)
 bpy.context.preferences.view.render_display_type = 'WINDOW'
 bpy.context.scene.render.resolution_percentage = 25
-if os.environ.get("RAYLAB_RENDER_ENGINE"):  # to compare with Blender's own engines (e.g. BLENDER_WORKBENCH)
+# To compare with Blender's own engines (e.g. BLENDER_WORKBENCH); their renders get no poke while they
+# run (poked_inside wraps raylab's render()), so renders_poked_while_rendering stays 0.
+if os.environ.get("RAYLAB_RENDER_ENGINE"):
     bpy.context.scene.render.engine = os.environ["RAYLAB_RENDER_ENGINE"]
 bpy.app.timers.register(start_render, first_interval=1.0)
