@@ -131,13 +131,19 @@ class Bvh final : public StructureBase<Bvh> {
   // One loop for both queries and both widths: closest hit prunes entries beyond the best hit so far;
   // any hit stops at the first triangle hit.
   // Where the random-ray gap to Embree medium (about 0.6x) lies, measured on goathead (its tree fits
-  // in L2), one core, BVH/Embree in one run: the same 0.55-0.65 with 1, 1,024 and 100,000 distinct
-  // rays (the set repeated: 71 vs 46, 169 vs 89, 285 vs 159 ns per closest-hit ray), so it is work per
-  // ray, not cache misses or mispredicted branches; this loop's setup up to the first node test is
-  // about 50 of the 285 ns. Neutral, within the run-to-run noise of 0.05 (goathead, dragon, bunny_hr):
-  // leaf_size 4 instead of 8; a float stand-in for the double decision of exact_lane (an upper bound
-  // on its cost, not kept); no prefetch at all; this traversal and the 8-lane kernels compiled for
-  // AVX-512 (32 vector registers, EVEX compares), so there is no separate AVX-512 path.
+  // in L2), one core, BVH/Embree in one run, ns per closest-hit ray: one ray repeated (nothing missed,
+  // every branch learnt) 71 vs 46; 1,024 rays repeated 169 vs 89; 100,000 rays 285 vs 159. So raylab
+  // is slower in each part alike, not in one: the bare walk, and what mispredictions and cache misses
+  // add. The setup up to the first node test is about 50 of the 285 ns. Tried one at a time (BVH/Embree
+  // of each against this code, goathead, dragon, bunny_hr, interleaved runs; the noise is about 0.05):
+  // within the noise, so not kept: leaf_size 4; a float stand-in for exact_lane's double decision (an
+  // upper bound on its cost); no prefetch at all; the two-children case without the sort loop; this
+  // walk and the 8-lane kernels compiled for AVX-512 (32 vector registers, EVEX compares: so there is
+  // no separate AVX-512 path). Each 8-box test done twice ran at 0.94-1.03 (the walk waits on its
+  // chain more than on the execution units), and Embree's shorter box test (one FMA per slab, planes
+  // by sign, no pad: timing only, as it is not conservative) at 1.00-1.05. Two rays walked in turns,
+  // to overlap their chains, ran at 0.78-1.04 on random rays and 0.72-0.91 on camera rays (closest
+  // hit; each walk's state lives in memory, and every ray pays the full setup).
   template <class Width, bool kClosest, class Recorder>
   [[gnu::always_inline]] bool traverse_wide(const Ray& ray, Hit* hit, Recorder& record) const {
     record.ray();
