@@ -64,12 +64,40 @@ def animation_markdown(anim):
     return lines + [""]
 
 
+def summary_lines(results):
+    """The BVH against Embree (medium) per mesh and thread count, from the ratios add_ratios made: the
+    table the README quotes."""
+    lines = ["## Summary", "",
+             "BVH/Embree medium: rays per second, above 1 is faster; build: seconds, above 1 is slower; "
+             "the octree's camera rays (closest hit) against the BVH's.", "",
+             "| mesh | threads | BVH/Embree camera closest | camera any | random closest | random any | build "
+             "| bytes/tri BVH / Embree | octree/BVH camera closest |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name, mesh in results["meshes"].items():
+        tracers = {t["name"]: t for t in mesh["tracers"]}
+        bvh, octree, embree = tracers.get("bvh"), tracers.get("octree"), tracers.get("embree_medium")
+        if not bvh or not embree or bvh["error"] or embree["error"]:
+            continue
+        r = bvh["ratios_to_embree_medium"]
+        octree_r = octree.get("ratios_to_embree_medium", {}) if octree and not octree["error"] else {}
+        per_triangle = f"{bvh['memory_bytes'] / mesh['triangles']:.1f} / {embree['memory_bytes'] / mesh['triangles']:.1f}"
+        for threads in sorted(int(n) for n in bvh["build"]):
+            rays = [r.get(f"{s}_{q}_{threads}t_rays_per_second") for s, q in
+                    (("camera", "closest"), ("camera", "any"), ("random", "closest"), ("random", "any"))]
+            camera_octree = octree_r.get(f"camera_closest_{threads}t_rays_per_second")
+            cells = [f"{x:.2f}" if x is not None else "-" for x in rays + [r[f"build_{threads}t_seconds"]]]
+            cells += [per_triangle, f"{camera_octree / rays[0]:.2f}" if camera_octree and rays[0] else "-"]
+            lines.append(f"| {name} | {threads} | " + " | ".join(cells) + " |")
+    return lines + [""]
+
+
 def markdown(results):
     lines = ["# raylab benchmark", "",
              f"{results['machine']['date']}, {results['machine']['hardware_threads']} hardware threads, "
              f"Embree {results['machine']['embree']}, Blender {results['blender'].get('blender_version', '-')}. "
              "Rays/s are medians of repetitions in this run; ratios are raylab / Embree (medium quality) "
              "on the same rays.", ""]
+    lines += summary_lines(results)
     lines += ["## Throughput, build and memory", "",
               "| mesh | tris | tracer | build s (2t) | bytes/tri | camera closest 1t | 2t | camera any 2t "
               "| random closest 1t | 2t | random any 2t | boxes/ray | tris/ray | BVH/Embree camera | random | build |",
