@@ -20,11 +20,16 @@ namespace raylab {
 // has count > 0 and its triangles in packets[child .. child + ceil(count / 4)); an inner child has
 // count 0 and its node index in `child`. Unused slots have count 0 and child kInvalidIndex; no box
 // value is missed by every ray under IEEE rules (a ray with tmax = inf reaches +inf), so the test
-// masks them out. Bounds are plain floats, not quantised: the exactness pad (BoxRay) is applied to the
-// stored box as the scalar test applies it, which a quantised box would first have to round outwards.
-// Quantised nodes were not measured yet: the profile (perf, dragon, one core) puts a sixth of the
-// traversal loop's samples on a node's first load and half the leaf test's on its packets' first
-// load, so fewer bytes per node is the next thing to try (its build side: bvh.cpp, bvh_refit.cpp).
+// masks them out. Bounds are plain floats, not quantised, by measurement: a quantised 8-wide node
+// (128 bytes, half this one: a float origin and scale per axis, an 8-bit step per child bound, each q
+// chosen at build time so that the decoded origin + q * scale contains the float box, then this test
+// bit for bit on the decoded box, so exact as this one) ran at 0.71-0.95 of this node's speed on
+// goathead, whose tree fits in L2 (the decode lengthens each step's load-to-test chain), 0.85-1.08 on
+// dragon and bunny_hr, 0.90-1.06 on icosphere:8 (1.3M triangles) and 0.91-1.20 on the dragon at 1.6M
+// (any hit on random rays gained most): BVH/Embree, camera and random rays, closest and any hit, one
+// core, one binary switching layout per run, two interleaved rounds, medians of 9 (5 on the large
+// meshes). Its gain needs trees far beyond the cache, and
+// Embree's medium build, which sets the goal, uses float nodes as well.
 template <int W>
 struct alignas(64) BvhWideNode {
   static constexpr int kWidth = W;
