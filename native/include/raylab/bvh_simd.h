@@ -28,8 +28,8 @@ namespace raylab {
 // dragon and bunny_hr, 0.90-1.06 on icosphere:8 (1.3M triangles) and 0.91-1.20 on the dragon at 1.6M
 // (any hit on random rays gained most): BVH/Embree, camera and random rays, closest and any hit, one
 // core, one binary switching layout per run, two interleaved rounds, medians of 9 (5 on the large
-// meshes). Its gain needs trees far beyond the cache, and
-// Embree's medium build, which sets the goal, uses float nodes as well.
+// meshes). It gains only on trees far beyond the cache; Embree's default (not compact) BVH keeps
+// float nodes too.
 template <int W>
 struct alignas(64) BvhWideNode {
   static constexpr int kWidth = W;
