@@ -137,13 +137,15 @@ class Bvh final : public StructureBase<Bvh> {
   // add. The setup up to the first node test is about 50 of the 285 ns. Tried one at a time (BVH/Embree
   // of each against this code, goathead, dragon, bunny_hr, interleaved runs; the noise is about 0.05):
   // within the noise, so not kept: leaf_size 4; a float stand-in for exact_lane's double decision (an
-  // upper bound on its cost); no prefetch at all; the two-children case without the sort loop; this
+  // upper bound on its cost); the two-children case without the sort loop; this
   // walk and the 8-lane kernels compiled for AVX-512 (32 vector registers, EVEX compares: so there is
   // no separate AVX-512 path). Each 8-box test done twice ran at 0.94-1.03 (the walk waits on its
   // chain more than on the execution units), and Embree's shorter box test (one FMA per slab, planes
   // by sign, no pad: timing only, as it is not conservative) at 1.00-1.05. Two rays walked in turns,
   // to overlap their chains, ran at 0.78-1.04 on random rays and 0.72-0.91 on camera rays (closest
-  // hit; each walk's state lives in memory, and every ray pays the full setup).
+  // hit; each walk's state lives in memory, and every ray pays the full setup). (Those measures, and
+  // the prefetch ones beside visit_children, ran with the AVX2 walk's prefetches silently dropped by
+  // the compiler: see prefetch().)
   template <class Width, bool kClosest, class Recorder>
   [[gnu::always_inline]] bool traverse_wide(const Ray& ray, Hit* hit, Recorder& record) const {
     record.ray();
@@ -261,10 +263,17 @@ class Bvh final : public StructureBase<Bvh> {
   }
 
   // Starts loading a child while its siblings are tested: on large meshes traversal waits on memory.
+  // always_inline because GCC 12 otherwise emitted no prefetch at all in the AVX2 walk: this function
+  // (default target) was not inlined into traverse8 (target "avx2") early, its only effect,
+  // __builtin_prefetch, made it look const, and the calls were deleted as dead code. With the
+  // prefetches back, BVH/Embree against the walk without them (one core, one binary each, two
+  // interleaved rounds, medians of 9, or 5 on the large meshes): random rays closest 1.07-1.17 and
+  // any 1.02-1.13 (goathead, dragon, bunny_hr), closest 1.09-1.31 and any 1.07-1.14 (icosphere:8,
+  // the dragon at 1.6M); camera rays 0.89-1.18, about even.
   // A leaf is loaded whole, up to the two packets the 8-lane test reads first (160 bytes each, 16-byte
   // aligned: up to six cache lines). Prefetching only its first two lines left the 8-lane test
   // waiting on its second packet: that load took 47 % of the leaf test's samples on the dragon.
-  void prefetch(const Entry& e) const {
+  [[gnu::always_inline]] void prefetch(const Entry& e) const {
     if (e.count != 0) {
       const char* p = reinterpret_cast<const char*>(&packets_[e.ref]);
       const size_t bytes = std::min<size_t>((e.count + 3) / 4, 2) * sizeof(TrianglePacket);
