@@ -50,10 +50,17 @@ struct BoxRay {
   }
 
   // kBoxPadScale times the largest distance, along any axis, from the origin to the root box.
+  // Lane-wise, without branches: glm::max(p, q) and std::max's steps are `p < q ? q : p`, which is
+  // _mm_max_ps(q, p). BVH/Embree of this over glm's form 1.01-1.10 on camera rays, 0.99-1.03 on random
+  // rays (goathead, dragon, bunny_hr, one core, interleaved runs).
   static float box_pad(const glm::vec3& origin, const Bounds& root) {
     if (root.empty()) return 0.0f;
-    const glm::vec3 far = glm::max(glm::abs(root.lo - origin), glm::abs(root.hi - origin));
-    return kBoxPadScale * std::max({far.x, far.y, far.z});
+    const __m128 o = _mm_setr_ps(origin.x, origin.y, origin.z, 0.0f), sign = _mm_set1_ps(-0.0f);
+    const __m128 lo = _mm_andnot_ps(sign, _mm_sub_ps(_mm_setr_ps(root.lo.x, root.lo.y, root.lo.z, 0.0f), o));
+    const __m128 hi = _mm_andnot_ps(sign, _mm_sub_ps(_mm_setr_ps(root.hi.x, root.hi.y, root.hi.z, 0.0f), o));
+    const __m128 far = _mm_max_ps(hi, lo);
+    const __m128 largest = _mm_max_ss(_mm_shuffle_ps(far, far, 2), _mm_max_ss(_mm_shuffle_ps(far, far, 1), far));
+    return kBoxPadScale * _mm_cvtss_f32(largest);
   }
 };
 

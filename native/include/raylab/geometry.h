@@ -3,6 +3,8 @@
 
 #include <glm/glm.hpp>
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <cstdint>
 #include <limits>
@@ -35,13 +37,22 @@ struct Ray {
 // octant order and the triangle test alike. Over the part of the ray that can reach the mesh (a
 // distance of at most a few times the mesh's size along the largest component), the dropped
 // component moves the ray by under 2^-38 of that size, far inside the box padding (box_intersection.h).
+// Lane-wise, without branches (every ray of a traversal pays it): the comparisons and selections of
+// `a[i] < keep || a[i] < FLT_MIN ? 0 : d[i]` with keep = 2^-40 * std::max(a.x, std::max(a.y, a.z)),
+// NaN handling included (a NaN component is kept, and compares false). BVH/Embree of this over that
+// loop (which GCC compiled with a branch per component) 1.02-1.11 on camera rays, 0.98-1.10 on random
+// rays (goathead, dragon, bunny_hr, one core, interleaved runs).
 inline glm::vec3 effective_direction(const glm::vec3& d) {
-  const glm::vec3 a = glm::abs(d);
-  const float keep = 0x1p-40f * std::max(a.x, std::max(a.y, a.z));
-  glm::vec3 out;
-  for (int i = 0; i < 3; ++i)
-    out[i] = a[i] < keep || a[i] < std::numeric_limits<float>::min() ? 0.0f : d[i];
-  return out;
+  const __m128 v = _mm_setr_ps(d.x, d.y, d.z, 0.0f);
+  const __m128 a = _mm_andnot_ps(_mm_set1_ps(-0.0f), v);
+  // std::max(p, q) is `p < q ? q : p`, which is _mm_max_ss(q, p).
+  const __m128 largest = _mm_max_ss(_mm_max_ss(_mm_shuffle_ps(a, a, 2), _mm_shuffle_ps(a, a, 1)), a);
+  const __m128 scaled = _mm_mul_ss(_mm_set_ss(0x1p-40f), largest);
+  const __m128 keep = _mm_shuffle_ps(scaled, scaled, 0);
+  const __m128 drop = _mm_or_ps(_mm_cmplt_ps(a, keep), _mm_cmplt_ps(a, _mm_set1_ps(std::numeric_limits<float>::min())));
+  alignas(16) float out[4];
+  _mm_store_ps(out, _mm_andnot_ps(drop, v));
+  return {out[0], out[1], out[2]};
 }
 
 struct Hit {
