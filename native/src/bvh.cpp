@@ -144,8 +144,8 @@ int chosen_width(int width) {
 // Collapses `binary` into `nodes` and writes the leaves' packets; returns each leaf's first packet.
 // The collapse itself runs in one thread: 22-28 ms of about 750 on the 1.6M dragon (one thread).
 // Collapsing the subtrees of under 16,384 triangles in parallel parts, placed after a serial top,
-// built at 0.98-1.09 of this one's time on two threads (dragon at 1.6M, icosphere:8, dragon,
-// bunny_hr; medians of 9, two rounds): within the noise, so not kept.
+// took 0.93-1.26 of this one's time relative to Embree's on two threads (dragon at 1.6M,
+// icosphere:8, dragon, bunny_hr; medians of 9, two rounds): within the noise, so not kept.
 template <int W>
 std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary,
                                     std::vector<BvhWideNode<W>>& nodes, HugeArray<TrianglePacket>& packets,
