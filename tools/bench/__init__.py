@@ -27,7 +27,7 @@ FULL = {
     "meshes": [("goathead", "goathead.obj"), ("bunny_hr", "bunny_hr.obj"), ("dragon", "dragon.obj"),
                ("icosphere", "icosphere:8"), ("dragon_1600k", "subdivided:2:dragon.obj")],
     "native": ["--camera", "512x384", "--random-rays", "100000", "--export-rays", "20000", "--reps", "5",
-               "--build-reps", "3", "--rep-seconds", "0.08", "--threads", "1,2", "--embree", "medium,high"],
+               "--build-reps", "7", "--rep-seconds", "0.08", "--threads", "1,2", "--embree", "medium,high"],
     "blender_reps": 3,
     "thesis": {"width": 160, "height": 120, "super_sampling": [1, 2, 3, 4], "reps": 3, "reference_ss": 8},
     "leaks": {"meshes": ["goathead", "armadillo", "icosphere"], "rays_per_kind": 20000, "reps": 3},
