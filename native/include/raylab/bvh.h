@@ -130,11 +130,15 @@ class Bvh final : public StructureBase<Bvh> {
 
   // One loop for both queries and both widths: closest hit prunes entries beyond the best hit so far;
   // any hit stops at the first triangle hit.
-  // Where the random-ray gap to Embree medium (about 0.6x) lies, measured on goathead (its tree fits
-  // in L2), one core, BVH/Embree in one run, ns per closest-hit ray: one ray repeated (nothing missed,
-  // every branch learnt) 71 vs 46; 1,024 rays repeated 169 vs 89; 100,000 rays 285 vs 159. So raylab
-  // is slower in each part alike, not in one: the bare walk, and what mispredictions and cache misses
-  // add. The setup up to the first node test is about 50 of the 285 ns. Tried one at a time (BVH/Embree
+  // Where the random-ray gap to Embree medium lies, measured on goathead (its tree fits in L2), one
+  // core, BVH/Embree in one run, ns per closest-hit ray before the setup and prefetch fixes: one ray
+  // repeated (nothing missed, every branch learnt) 71 vs 46; 1,024 rays repeated 169 vs 89; 100,000
+  // rays 285 vs 159. Counted by callgrind (20,000 random rays; valgrind's CPU has no AVX-512, so Embree
+  // runs its AVX2 kernels there), instructions per ray are the gap: closest hit 894 against Embree's
+  // 506 (1,092 before those fixes), any hit 738 against 418 (944); simulated mispredictions 8.0
+  // against 6.9 (10.1). raylab's closest hit: about 130 of setup, about 90 per inner node (3.4 per
+  // ray: the 8-box test 51, choosing and pushing the children about 40) and 214 per leaf test (0.9
+  // per ray: the 8-lane filter 127, the exact decision on 41 % of them). Tried one at a time (BVH/Embree
   // of each against this code, goathead, dragon, bunny_hr, interleaved runs; the noise is about 0.05):
   // within the noise, so not kept: leaf_size 4; a float stand-in for exact_lane's double decision (an
   // upper bound on its cost); the two-children case without the sort loop; this
@@ -145,7 +149,10 @@ class Bvh final : public StructureBase<Bvh> {
   // to overlap their chains, ran at 0.78-1.04 on random rays and 0.72-0.91 on camera rays (closest
   // hit; each walk's state lives in memory, and every ray pays the full setup). (Those measures, and
   // the prefetch ones beside visit_children, ran with the AVX2 walk's prefetches silently dropped by
-  // the compiler: see prefetch().)
+  // the compiler: see prefetch().) Not kept either, measured the same way after the fix unless said:
+  // intersect_watertight8 forced inline 0.96-1.06; the 8-lane filter reading the shear frame's rows
+  // by offsets made once per ray 0.87-1.12; one branch-free prefetch of six lines for every child,
+  // against no prefetch at all, 0.86-1.04 (prefetch() gains 1.02-1.31 over none).
   template <class Width, bool kClosest, class Recorder>
   [[gnu::always_inline]] bool traverse_wide(const Ray& ray, Hit* hit, Recorder& record) const {
     record.ray();
