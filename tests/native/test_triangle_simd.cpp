@@ -276,6 +276,14 @@ __attribute__((target("avx2"), noinline)) int watertight8(const WatertightRay& w
   return intersect_watertight8(w8, a, b, 0xff, tmin, tmax, t, u, v);
 }
 
+// The 8-lane any-hit test, the same way.
+__attribute__((target("avx2"), noinline)) int watertight8_any(const WatertightRay& w, const TrianglePacket& a,
+                                                             const TrianglePacket& b, float tmin, float tmax) {
+  const Watertight8Ray w8(w);
+  float t[8], u[8], v[8];
+  return intersect_watertight8<true>(w8, a, b, 0xff, tmin, tmax, t, u, v);
+}
+
 }  // namespace
 
 // Every lane of intersect_watertight4, and of intersect_watertight8 where the CPU has AVX2, gives
@@ -285,9 +293,11 @@ __attribute__((target("avx2"), noinline)) int watertight8(const WatertightRay& w
 // over the cases above, each packet tested with a first window (tmin, tmax) and then, for every
 // lane the scalar test hits at t, with tmax = t, tmax just below t, tmin = t, tmin just below t and
 // (just below t, t): the windows where the SIMD test's pre-check on the corners' z range decides.
+// The any-hit forms (kAny) return the first lane the scalar test hits, or nothing.
 TEST(TriangleIntersection, SimdLanesGiveTheScalarResultBitForBit) {
   Cases cases(0x5eed2013);
   long lanes = 0, hits = 0, denormal_hits = 0, to_double = 0, float_leaks = 0, mismatches = 0;
+  long any_packets = 0, any_hits = 0, any_mismatches = 0;
   std::ostringstream report;
   for (int n = 0; n < 100000; ++n) {
     Cases::Case c = cases.next();
@@ -313,6 +323,26 @@ TEST(TriangleIntersection, SimdLanesGiveTheScalarResultBitForBit) {
       int mask = intersect_watertight4(w4, packet, tmin, tmax, t, u, v);
       const int simd_lanes = avx2 ? 12 : 4;  // lanes 4-11: the 8-lane test's lanes 0-7
       if (avx2) mask |= watertight8(w, packet, reversed, tmin, tmax, t8, u8, v8) << 4;
+      // Any hit: the first lane the scalar test hits, in the 4-lane packet and in the 8 lanes.
+      int first4 = 0, first8 = 0;
+      for (int simd_lane = 7; simd_lane >= 0; --simd_lane) {
+        const int lane = simd_lane < 4 ? simd_lane : 7 - simd_lane;
+        TriangleHit h{};
+        if (intersect_watertight(w, c.p[lane][0], c.p[lane][1], c.p[lane][2], tmin, tmax, h)) {
+          first8 = 1 << simd_lane;
+          if (simd_lane < 4) first4 = 1 << simd_lane;
+        }
+      }
+      float ta[4], ua[4], va[4];
+      const int any4 = intersect_watertight4<true>(w4, packet, tmin, tmax, ta, ua, va);
+      ++any_packets;
+      any_hits += first4 != 0;
+      if (any4 != first4 || (avx2 && watertight8_any(w, packet, reversed, tmin, tmax) != first8)) {
+        if (++any_mismatches <= 5)
+          report << "case " << n << ": any-hit lanes " << any4 << " (8-lane "
+                 << (avx2 ? watertight8_any(w, packet, reversed, tmin, tmax) : -1) << "), scalar first hits " << first4
+                 << " (" << first8 << "), tmin " << hex(tmin) << " tmax " << hex(tmax) << "\n";
+      }
       for (int simd_lane = 0; simd_lane < simd_lanes; ++simd_lane) {
         const int lane = simd_lane < 8 ? simd_lane % 4 : 3 - (simd_lane - 8);  // the triangle's own index
         const glm::vec3* p = c.p[lane];
@@ -363,7 +393,10 @@ TEST(TriangleIntersection, SimdLanesGiveTheScalarResultBitForBit) {
   std::printf("[ counts   ] %ld lanes compared, %ld hits (%ld at a denormal t); first windows: %ld lanes passed to "
               "double precision, %ld of them hits where the float edge functions have opposite signs\n",
               lanes, hits, denormal_hits, to_double, float_leaks);
+  std::printf("[ counts   ] any hit: %ld packets, %ld of them hit\n", any_packets, any_hits);
   EXPECT_EQ(mismatches, 0) << mismatches << " lanes differ from the scalar test; the first:\n" << report.str();
+  EXPECT_EQ(any_mismatches, 0) << any_mismatches << " any-hit packets differ from the scalar test:\n" << report.str();
+  EXPECT_GT(any_hits, 100000);
   EXPECT_GT(lanes, 1000000);
   EXPECT_GT(hits, 100000);
   EXPECT_GT(to_double, 10000);

@@ -90,9 +90,11 @@ class Bvh final : public StructureBase<Bvh> {
       _mm_storeu_ps(t, entry);
       return mask;
     }
+    template <bool kAny>
     static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes, float tmin, float tmax, float* t,
                          float* u, float* v) {
-      return intersect_watertight4(r, p[0], tmin, tmax, t, u, v) & ((1 << lanes) - 1);
+      // The unused lanes repeat lane 0's triangle, so an any-hit mask's first lane is a real one.
+      return intersect_watertight4<kAny>(r, p[0], tmin, tmax, t, u, v) & ((1 << lanes) - 1);
     }
   };
   struct Avx8 {
@@ -103,9 +105,10 @@ class Bvh final : public StructureBase<Bvh> {
     __attribute__((target("avx2"))) static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
       return intersect_box8(node, r, tmax, t);
     }
+    template <bool kAny>
     __attribute__((target("avx2"))) static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes,
                                                          float tmin, float tmax, float* t, float* u, float* v) {
-      return intersect_watertight8(r, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
+      return intersect_watertight8<kAny>(r, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
     }
   };
 
@@ -332,7 +335,7 @@ class Bvh final : public StructureBase<Bvh> {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));
       alignas(32) float t[8], u[8], v[8];
-      const int mask = Width::triangles(triw, p, lanes, tester.ray.tmin, best.t, t, u, v);
+      const int mask = Width::template triangles<false>(triw, p, lanes, tester.ray.tmin, best.t, t, u, v);
       found |= take_closest_lanes(p, lanes, mask, t, u, v, record, best);
     }
     return found;
@@ -348,7 +351,7 @@ class Bvh final : public StructureBase<Bvh> {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));
       alignas(32) float t[8], u[8], v[8];
-      const int mask = Width::triangles(triw, p, lanes, tester.ray.tmin, tester.ray.tmax, t, u, v);
+      const int mask = Width::template triangles<true>(triw, p, lanes, tester.ray.tmin, tester.ray.tmax, t, u, v);
       if (record_any_lanes(p, lanes, mask, record)) return true;
     }
     return false;

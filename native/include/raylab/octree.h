@@ -184,7 +184,7 @@ class Octree final : public StructureBase<Octree> {
     walk(ray, record, [&] { return best.t; }, [&](const OctreeNode& leaf) {
       return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
         alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-        const int mask = test_packets(tester, ray4, packets, lanes, best.t, t, u, v);
+        const int mask = test_packets<false>(tester, ray4, packets, lanes, best.t, t, u, v);
         found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
         return false;
       });
@@ -207,7 +207,7 @@ class Octree final : public StructureBase<Octree> {
     walk(ray, record, [&] { return ray.tmax; }, [&](const OctreeNode& leaf) {
       return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
         alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-        const int mask = test_packets(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
+        const int mask = test_packets<true>(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
         return occluded = record_any_lanes(packets, lanes, mask, record);
       });
     });
@@ -282,23 +282,28 @@ class Octree final : public StructureBase<Octree> {
   // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE). Measured
   // (octree / BVH camera rays, closest hit, one core, CPU time, two interleaved runs each; dragon,
   // goathead, koala): 8 lanes 0.38-0.39, 0.40-0.41, 0.31-0.36; 4 lanes 0.35-0.39, 0.36-0.40, 0.30-0.32.
+  // kAny: only the first lane hit (first_hit_lane, bvh_simd.h).
+  template <bool kAny>
   [[gnu::always_inline]] int test_packets(const TriangleTester& tester, const Watertight4Ray& ray4,
                                           const TrianglePacket* packets, int lanes, float tmax, float* t, float* u,
                                           float* v) const {
     if (leaf_lanes_ == 8)
-      return test_packets8(tester.watertight, packets[0], lanes > 4 ? packets[1] : packets[0], (1 << lanes) - 1,
-                           tester.ray.tmin, tmax, t, u, v);
-    int mask = intersect_watertight4(ray4, packets[0], tester.ray.tmin, tmax, t, u, v);
-    if (lanes > 4) mask |= intersect_watertight4(ray4, packets[1], tester.ray.tmin, tmax, t + 4, u + 4, v + 4) << 4;
+      return test_packets8<kAny>(tester.watertight, packets[0], lanes > 4 ? packets[1] : packets[0],
+                                 (1 << lanes) - 1, tester.ray.tmin, tmax, t, u, v);
+    int mask = intersect_watertight4<kAny>(ray4, packets[0], tester.ray.tmin, tmax, t, u, v);
+    // The unused lanes repeat their packet's first triangle, so an any-hit mask's first lane is real.
+    if (lanes > 4 && !(kAny && mask != 0))
+      mask |= intersect_watertight4<kAny>(ray4, packets[1], tester.ray.tmin, tmax, t + 4, u + 4, v + 4) << 4;
     return mask & ((1 << lanes) - 1);
   }
 
   // Not inlined: the walk is compiled for SSE, this alone for AVX2.
+  template <bool kAny>
   __attribute__((target("avx2"), noinline)) static int test_packets8(const WatertightRay& ray, const TrianglePacket& a,
                                                                  const TrianglePacket& b, int lanes, float tmin,
                                                                  float tmax, float* t, float* u, float* v) {
     const Watertight8Ray ray8(ray);
-    return intersect_watertight8(ray8, a, b, lanes, tmin, tmax, t, u, v);
+    return intersect_watertight8<kAny>(ray8, a, b, lanes, tmin, tmax, t, u, v);
   }
 
   // The corners of packet.triangle[0..3] into packet.p: each triangle's rows, transposed.
