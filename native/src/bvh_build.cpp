@@ -385,22 +385,43 @@ class Builder {
     return area > 0.0f && kTraversalCost + best_cost / area < float(blocks(n));
   }
 
+  // order[a] lists refs_[begin, begin + n) (n <= kObjectSweepMax) by centroid along axis a, equal
+  // keys by position (a stable sort's order). Each primitive's place is its rank, counted for the
+  // three axes at once without a branch. The insertion sort it replaces (the same order) was a fifth
+  // of the build, in mispredicted compares: build time over Embree medium's, one thread, 2 runs of 9
+  // interleaved builds, before -> after: goathead 0.96-0.98 -> 0.75-0.77, bunny_hr 0.95-0.97 ->
+  // 0.74-0.78, dragon 0.96 -> 0.77-0.80, icosphere:8 1.01-1.08 -> 0.90-0.92, dragon 1.6M 1.00-1.04 -> 0.84-0.88.
+  void sort_centroids(uint32_t begin, uint32_t n, uint8_t (&order)[3][kObjectSweepMax]) const {
+    // Keys as integers ordered as the floats are (+0 for -0, so that the two stay equal): a total
+    // order, so that even NaN keys give a permutation.
+    __m128i key[kObjectSweepMax], rank[kObjectSweepMax];
+    for (uint32_t i = 0; i < n; ++i) {
+      const __m128i bits = _mm_castps_si128(_mm_add_ps(refs_[begin + i].centroid2(), _mm_setzero_ps()));
+      key[i] = _mm_xor_si128(bits, _mm_and_si128(_mm_srai_epi32(bits, 31), _mm_set1_epi32(0x7fffffff)));
+      rank[i] = _mm_setzero_si128();
+    }
+    // A pair i < j: i goes after j if key i > key j; else j goes after i.
+    const __m128i one = _mm_set1_epi32(1);
+    for (uint32_t i = 0; i < n; ++i)
+      for (uint32_t j = i + 1; j < n; ++j) {
+        const __m128i after = _mm_cmpgt_epi32(key[i], key[j]);  // -1 where i goes after j
+        rank[i] = _mm_sub_epi32(rank[i], after);
+        rank[j] = _mm_add_epi32(rank[j], _mm_add_epi32(one, after));
+      }
+    for (uint32_t i = 0; i < n; ++i) {
+      alignas(16) int32_t r[4];
+      _mm_store_si128(reinterpret_cast<__m128i*>(r), rank[i]);
+      for (int a = 0; a < 3; ++a) order[a][r[a]] = uint8_t(i);
+    }
+  }
+
   // The SAH over every split of the primitives sorted by centroid along each axis (ties by position):
   // for small nodes this costs no more than binning, and it considers every split binning could.
   uint32_t sweep_objects(const RangeInfo& info, uint32_t begin, uint32_t end, RangeInfo& left_info,
                          RangeInfo& right_info) {
     const uint32_t n = end - begin;
-    alignas(16) float key[kObjectSweepMax][4];
     uint8_t order[3][kObjectSweepMax];
-    for (uint32_t i = 0; i < n; ++i) _mm_store_ps(key[i], refs_[begin + i].centroid2());
-    for (int a = 0; a < 3; ++a) {
-      uint8_t* o = order[a];
-      for (uint32_t i = 0; i < n; ++i) {  // insertion sort: stable, so equal keys keep their order
-        uint32_t j = i;
-        for (; j > 0 && key[o[j - 1]][a] > key[i][a]; --j) o[j] = o[j - 1];
-        o[j] = uint8_t(i);
-      }
-    }
+    sort_centroids(begin, n, order);
     auto ref = [&](int a, uint32_t i) -> const PrimRef& { return refs_[begin + order[a][i]]; };
     __m128 right_cost[kObjectSweepMax];  // area times blocks of the right side of split i
     {
