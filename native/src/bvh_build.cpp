@@ -137,11 +137,6 @@ struct Binning {
     const __m128i b = _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(r.centroid2(), origin), scale));
     return _mm_min_epi32(_mm_max_epi32(b, _mm_setzero_si128()), _mm_set1_epi32(kBins - 1));
   }
-  int bin_of(const PrimRef& r, int axis) const {
-    alignas(16) int32_t b[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(b), bins_of(r));
-    return b[axis];
-  }
 };
 
 // Reduces body(begin, end) over a range, starting from `identity`, in parallel when it is large.
@@ -357,26 +352,73 @@ class Builder {
     if (n <= max_leaf_size_ && !worth_splitting(info, n, cost)) return begin;
     if (best_axis < 0) return median(begin, end, left_info, right_info);
     const int best_bin = axis_split[best_axis];
-    for (int i = 0; i < kBins; ++i) (i < best_bin ? left_info : right_info).bounds.extend(bins.box[i][best_axis]);
-    return partition(binning, best_axis, best_bin, begin, end, left_info.centroids, right_info.centroids);
+    uint32_t left_count = 0;
+    for (int i = 0; i < kBins; ++i) {
+      (i < best_bin ? left_info : right_info).bounds.extend(bins.box[i][best_axis]);
+      if (i < best_bin) left_count += bins.count[i][best_axis];
+    }
+    return partition(binning, best_axis, best_bin, begin, end, left_count, left_info.centroids, right_info.centroids);
   }
 
-  // Hoare partition by bin that also gathers each side's centroid bounds on the way.
-  uint32_t partition(const Binning& binning, int axis, int split_bin, uint32_t begin, uint32_t end, Box& left_centroids,
-                     Box& right_centroids) {
-    uint32_t i = begin, j = end;
-    for (;;) {
-      while (i < j && binning.bin_of(refs_[i], axis) < split_bin) {
-        const __m128 c = refs_[i++].centroid2();
-        left_centroids.extend(c, c);
+  // Moves the primitives of refs_[begin, end) in bins below split_bin (left_count of them, as the
+  // bins counted) before the others and returns where the others start, gathering each side's
+  // centroid bounds on the way. The order is a Hoare partition's: the k-th primitive bound right
+  // from the left part swaps with the k-th bound left from the right part (counting from the ends
+  // inwards). Here the scans find them a block at a time without a branch per primitive. Build time
+  // over Embree medium's, one thread, 2 runs of 9 interleaved builds (a busy machine), Hoare's loop
+  // -> this: goathead 0.72-0.76 -> 0.61-0.67, bunny_hr 0.73-0.80 -> 0.68-0.78, dragon 0.78-0.80 ->
+  // 0.60-0.64, icosphere:8 0.86-0.90 -> 0.84-0.86, dragon 1.6M 0.75-0.86 -> 0.73-0.74; CPU time of
+  // 5 builds 0.92x (icosphere:8) and 0.89x (dragon 1.6M). Hoare's loop with its bounds in locals
+  // alone measured 0.98-0.99x.
+  uint32_t partition(const Binning& binning, int axis, int split_bin, uint32_t begin, uint32_t end, uint32_t left_count,
+                     Box& left_centroids, Box& right_centroids) {
+    constexpr uint32_t kBlock = 64;
+    PrimRef* const refs = refs_.get();
+    const uint32_t mid = begin + left_count;
+    const __m128i split = _mm_set1_epi32(split_bin);
+    const __m128i broadcast = _mm_set1_epi32(0x03020100 + 0x04040404 * axis);  // lane `axis` to every lane
+    const __m128 inf = _mm_set1_ps(kInfinity), neg_inf = _mm_set1_ps(-kInfinity);
+    Box left, right;  // in registers: through the references each update waited for the last one's store
+    // 1 if r goes left, else 0; its centroid joins its side's bounds.
+    const auto goes_left = [&](const PrimRef& r) {
+      const __m128 c = r.centroid2();
+      const __m128 is_left = _mm_castsi128_ps(_mm_shuffle_epi8(_mm_cmplt_epi32(binning.bins_of(r), split), broadcast));
+      left.lo = _mm_min_ps(left.lo, _mm_blendv_ps(inf, c, is_left));
+      left.hi = _mm_max_ps(left.hi, _mm_blendv_ps(neg_inf, c, is_left));
+      right.lo = _mm_min_ps(right.lo, _mm_blendv_ps(c, inf, is_left));
+      right.hi = _mm_max_ps(right.hi, _mm_blendv_ps(c, neg_inf, is_left));
+      return uint32_t(_mm_movemask_ps(is_left) & 1);
+    };
+    uint32_t up = begin, down = end;  // the next to scan in the left part (upwards), in the right part (below it)
+    uint32_t misplaced_left[kBlock], misplaced_right[kBlock];  // positions found, from [first, count) not yet swapped
+    uint32_t first_left = 0, count_left = 0, first_right = 0, count_right = 0;
+    while (up < mid || down > mid) {
+      bool scanned = false;
+      if (first_left == count_left && up < mid) {
+        first_left = count_left = 0;
+        for (const uint32_t stop = std::min(mid, up + kBlock); up < stop; ++up) {
+          misplaced_left[count_left] = up;
+          count_left += 1 - goes_left(refs[up]);
+        }
+        scanned = true;
       }
-      while (i < j && binning.bin_of(refs_[j - 1], axis) >= split_bin) {
-        const __m128 c = refs_[--j].centroid2();
-        right_centroids.extend(c, c);
+      if (first_right == count_right && down > mid) {
+        first_right = count_right = 0;
+        for (const uint32_t stop = down - std::min(kBlock, down - mid); down > stop;) {
+          misplaced_right[count_right] = --down;
+          count_right += goes_left(refs[down]);
+        }
+        scanned = true;
       }
-      if (i >= j) return i;
-      std::swap(refs_[i], refs_[j - 1]);
+      const uint32_t swaps = std::min(count_left - first_left, count_right - first_right);
+      for (uint32_t k = 0; k < swaps; ++k) std::swap(refs[misplaced_left[first_left + k]], refs[misplaced_right[first_right + k]]);
+      first_left += swaps;
+      first_right += swaps;
+      if (!scanned && swaps == 0) break;  // unreachable while left_count is the bins' count
     }
+    left_centroids = left;
+    right_centroids = right;
+    return mid;
   }
 
   // Whether splitting a node that may be a leaf beats the leaf, by the SAH.
