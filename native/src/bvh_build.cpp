@@ -137,6 +137,12 @@ struct Binning {
     const __m128i b = _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(r.centroid2(), origin), scale));
     return _mm_min_epi32(_mm_max_epi32(b, _mm_setzero_si128()), _mm_set1_epi32(kBins - 1));
   }
+  // Per lane, all ones where bins_of(r) < split, for splits in [1, kBins - 1]: without the clamp,
+  // which cannot change the comparison there (the partition's test: CPU time of 5 builds 0.96-0.98x
+  // with the clamp, icosphere:8 and dragon 1.6M, medians of 5).
+  __m128i below(const PrimRef& r, __m128i split) const {
+    return _mm_cmplt_epi32(_mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(r.centroid2(), origin), scale)), split);
+  }
 };
 
 // Reduces body(begin, end) over a range, starting from `identity`, in parallel when it is large.
@@ -382,7 +388,7 @@ class Builder {
     // 1 if r goes left, else 0; its centroid joins its side's bounds.
     const auto goes_left = [&](const PrimRef& r) {
       const __m128 c = r.centroid2();
-      const __m128 is_left = _mm_castsi128_ps(_mm_shuffle_epi8(_mm_cmplt_epi32(binning.bins_of(r), split), broadcast));
+      const __m128 is_left = _mm_castsi128_ps(_mm_shuffle_epi8(binning.below(r, split), broadcast));
       left.lo = _mm_min_ps(left.lo, _mm_blendv_ps(inf, c, is_left));
       left.hi = _mm_max_ps(left.hi, _mm_blendv_ps(neg_inf, c, is_left));
       right.lo = _mm_min_ps(right.lo, _mm_blendv_ps(c, inf, is_left));
