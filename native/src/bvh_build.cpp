@@ -30,6 +30,7 @@ constexpr uint32_t kObjectSweepMax = 16;
 constexpr uint32_t kTaskThreshold = 4096;              // smaller subtrees stay in the task that reaches them
 constexpr uint32_t kParallelScanThreshold = 1u << 16;  // larger nodes bin their primitives in parallel
 constexpr uint32_t kScanGrain = 1u << 13;
+constexpr ptrdiff_t kPrefetchAhead = 16;  // references (of 32 bytes) ahead of a scan: prefetch_ref
 // Deeper nodes split at the index median, so the depth stays below kMaxSahDepth + log2(n) whatever
 // the input (the traversal stacks rely on it).
 constexpr int kMaxSahDepth = 48;
@@ -65,6 +66,18 @@ struct PrimRef {
   // Twice the centroid: the factor cancels in binning.
   __m128 centroid2() const { return _mm_add_ps(_mm_blend_ps(lo, _mm_setzero_ps(), 0x8), hi); }
 };
+
+// Asks for the reference `ahead` places after r (before it if negative) in the cache: the scans over
+// nodes larger than the caches wait on memory otherwise (this machine's hardware prefetch does not
+// keep up). A prefetch never faults, so the address may lie outside the array; it is computed as an
+// integer, so that it need not be a valid pointer. Build time, one thread, minimum of 3 x 9 builds:
+// prefetching in the binning 0.91x (icosphere:8) and 0.92x (dragon 1.6M), 1.00x on dragon and
+// bunny_hr (their references fit the cache); in the partition's scans too, another 0.98-1.00x.
+// 16 ahead: 8 and 32 measured within 1% of it.
+inline void prefetch_ref(const PrimRef* r, ptrdiff_t ahead) {
+  _mm_prefetch(reinterpret_cast<const char*>(reinterpret_cast<uintptr_t>(r) + ahead * ptrdiff_t(sizeof(PrimRef))),
+               _MM_HINT_T0);
+}
 
 // What a node's build needs to know of its primitives, and what binning hands its children.
 struct RangeInfo {
@@ -299,8 +312,10 @@ class Builder {
     const Bins bins = reduce_range(begin, end, Bins(), [&](uint32_t b, uint32_t e) {
       Bins r;
       alignas(16) int32_t index[4];
+      const PrimRef* const refs = refs_.get();
       for (uint32_t i = b; i < e; ++i) {
-        const PrimRef& ref = refs_[i];
+        prefetch_ref(refs + i, kPrefetchAhead);
+        const PrimRef& ref = refs[i];
         _mm_store_si128(reinterpret_cast<__m128i*>(index), binning.bins_of(ref));
         for (int a = 0; a < 3; ++a) {
           r.box[index[a]][a].extend(ref.lo, ref.hi);
@@ -403,6 +418,7 @@ class Builder {
       if (first_left == count_left && up < mid) {
         first_left = count_left = 0;
         for (const uint32_t stop = std::min(mid, up + kBlock); up < stop; ++up) {
+          prefetch_ref(refs + up, kPrefetchAhead);
           misplaced_left[count_left] = up;
           count_left += 1 - goes_left(refs[up]);
         }
@@ -411,6 +427,7 @@ class Builder {
       if (first_right == count_right && down > mid) {
         first_right = count_right = 0;
         for (const uint32_t stop = down - std::min(kBlock, down - mid); down > stop;) {
+          prefetch_ref(refs + down, -kPrefetchAhead);
           misplaced_right[count_right] = --down;
           count_right += goes_left(refs[down]);
         }
