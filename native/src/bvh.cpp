@@ -47,6 +47,8 @@ struct Leaf {
 // Collapses a binary BVH into a W-wide one: each wide node takes the binary node's children and
 // keeps opening its largest inner child (by surface area, the likeliest to be entered) until it has
 // W. Leaves only get their packet range here; fill_packets writes them afterwards, in parallel.
+// Reserving leaves_ for the binary tree's (k + 1) / 2 leaves (no growth copies) measured 0.99-1.02x
+// the build time (icosphere:8, dragon 1.6M, one thread, minimum of 3 x 9 builds): not kept.
 template <int W>
 class Collapser {
  public:
