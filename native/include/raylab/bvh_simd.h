@@ -178,6 +178,9 @@ __attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, 
     t_near = _mm256_max_ps(near, t_near);
     t_far = _mm256_min_ps(far, t_far);
   }
+  // t_near <= t_far * scale and t_near <= tmax as two compares (one step less from the node's load to
+  // the next node's) measured 0.994-1.016, median 1.005 (BVH/Embree, goathead, dragon, bunny_hr, one
+  // core, five interleaved rounds): not kept.
   t_far = _mm256_min_ps(_mm256_mul_ps(t_far, _mm256_set1_ps(kBoxFarScale)), _mm256_set1_ps(tmax));
   _mm256_storeu_ps(t_entry, t_near);
   const __m256i unused = _mm256_cmpeq_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(node.child)),
