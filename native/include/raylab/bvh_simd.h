@@ -1,9 +1,10 @@
-// The SIMD kernels of the wide BVH: one ray against four boxes (SSE) or eight (AVX2), and against four
-// triangles at once (SSE).
+// The SIMD kernels of the wide BVH (and the octree's leaves): one ray against four boxes (SSE) or eight
+// (AVX2), and against four triangles (SSE) or eight (AVX2) at once.
 // The box kernel is a lane-wise transcription of intersect_box with the same NaN handling and the
-// same result bit for bit (the far widening applied once to the minimum, which rounds the same); the triangle kernel is intersect_watertight's float filter, and
-// the lanes it cannot reject are decided by the same double-precision function as the scalar test.
-// Both give bit-identical results: SIMD changes the speed, never the answer.
+// same result bit for bit (the far widening applied once to the minimum, which rounds the same); the
+// triangle kernels are intersect_watertight's float filter, and the lanes it cannot reject are decided
+// in double precision by the scalar test's decision (exact_lane), or by its lane-wise transcription
+// (exact_packet, AVX2). All give bit-identical results: SIMD changes the speed, never the answer.
 #pragma once
 
 #include "raylab/box_intersection.h"
