@@ -195,6 +195,17 @@ inline bool cpu_has_avx2() {
   return has;
 }
 
+// The ray's origin in the shear frame's axis order (kx, ky, kz), and the byte offsets of those axes'
+// rows in a TrianglePacket (Watertight4Ray::row): what both SIMD triangle tests take per ray.
+inline void shear_frame(const WatertightRay& r, float origin[3], size_t row[3]) {
+  const int k[3] = {r.kx, r.ky, r.kz};
+  const float o[3] = {r.origin.x, r.origin.y, r.origin.z};  // not glm's operator[], a switch (branches)
+  for (int a = 0; a < 3; ++a) {
+    origin[a] = o[k[a]];
+    row[a] = sizeof(float) * 4 * size_t(k[a]);
+  }
+}
+
 // The per-ray constants of the 4-triangle watertight test.
 struct Watertight4Ray {
   const WatertightRay& ray;
@@ -210,12 +221,9 @@ struct Watertight4Ray {
 
   explicit Watertight4Ray(const WatertightRay& r)
       : ray(r), sx(_mm_set1_ps(r.sx)), sy(_mm_set1_ps(r.sy)), sz(_mm_set1_ps(r.sz)) {
-    const int k[3] = {r.kx, r.ky, r.kz};
-    const float o[3] = {r.origin.x, r.origin.y, r.origin.z};  // not glm's operator[], a switch (branches)
-    for (int a = 0; a < 3; ++a) {
-      origin[a] = _mm_set1_ps(o[k[a]]);
-      row[a] = sizeof(float) * 4 * size_t(k[a]);
-    }
+    float o[3];
+    shear_frame(r, o, row);
+    for (int a = 0; a < 3; ++a) origin[a] = _mm_set1_ps(o[a]);
   }
 };
 
@@ -334,12 +342,9 @@ struct Watertight8Ray {
 
   __attribute__((target("avx2"))) explicit Watertight8Ray(const WatertightRay& r)
       : ray(r), sx(_mm256_set1_ps(r.sx)), sy(_mm256_set1_ps(r.sy)), sz(_mm256_set1_ps(r.sz)) {
-    const int k[3] = {r.kx, r.ky, r.kz};
-    const float o[3] = {r.origin.x, r.origin.y, r.origin.z};  // not glm's operator[], a switch (branches)
-    for (int a = 0; a < 3; ++a) {
-      origin[a] = _mm256_set1_ps(o[k[a]]);
-      row[a] = sizeof(float) * 4 * size_t(k[a]);
-    }
+    float o[3];
+    shear_frame(r, o, row);
+    for (int a = 0; a < 3; ++a) origin[a] = _mm256_set1_ps(o[a]);
   }
 };
 
@@ -363,9 +368,10 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
                                                         float tmin, float tmax, float* t_out, float* u_out,
                                                         float* v_out) {
   const WatertightRay& ray = r.ray;
-  const float o[3] = {ray.origin.x, ray.origin.y, ray.origin.z};
-  const __m256d ox = _mm256_set1_pd(double(o[ray.kx])), oy = _mm256_set1_pd(double(o[ray.ky])),
-                oz = _mm256_set1_pd(double(o[ray.kz]));
+  // The origin's float lanes in the shear frame's order, widened exactly to double.
+  const __m256d ox = _mm256_cvtps_pd(_mm256_castps256_ps128(r.origin[0])),
+                oy = _mm256_cvtps_pd(_mm256_castps256_ps128(r.origin[1])),
+                oz = _mm256_cvtps_pd(_mm256_castps256_ps128(r.origin[2]));
   const __m256d dsx = _mm256_set1_pd(ray.dsx), dsy = _mm256_set1_pd(ray.dsy);
   const __m256d abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffLL));
   const __m256d zero = _mm256_setzero_pd();
