@@ -2,6 +2,7 @@
 # A cached Debian root (debootstrap, minbase) to run raylab on another Debian release than the host's.
 #
 #   tools/debian_root.sh ensure NAME SUITE [PACKAGE...]   make /var/cache/raylab/NAME once (later: seconds)
+#   tools/debian_root.sh install NAME PACKAGE...          Debian packages into it, when missing
 #   tools/debian_root.sh run NAME COMMAND...              COMMAND inside it, the checkout mounted at /raylab
 #
 # The roots live under $RAYLAB_ROOTS (default /var/cache/raylab). Making one needs root and Debian's
@@ -63,6 +64,9 @@ ensure() {  # NAME SUITE [PACKAGE...]
   else
     mkdir -p "$tmp" && tar -C "$tmp" -xf "$base"
   fi
+  # The mirror may be a frozen snapshot: apt must take its Release files after their Valid-Until date
+  # (sid's are valid for a week only).
+  echo 'Acquire::Check-Valid-Until "false";' > "$tmp/etc/apt/apt.conf.d/99raylab-snapshot"
   mv "$tmp" "$dir"
   if [ $# -gt 0 ]; then
     in_root "$name" sh -c "apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $* >/dev/null" \
@@ -74,6 +78,8 @@ ensure() {  # NAME SUITE [PACKAGE...]
 cmd="${1:-}"; shift || true
 case "$cmd" in
   ensure) ensure "$@" ;;
+  install) name="$1"; shift; [ -f "$ROOTS/$name/.raylab-root" ] || die "no root $name: run ensure first"
+    in_root "$name" sh -c 'for p in "$@"; do dpkg-query -W -f="\${Status}" "$p" 2>/dev/null | grep -q "install ok installed" || exec sh -c "apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $* >/dev/null"; done' sh "$@" ;;
   run) name="$1"; shift; [ -f "$ROOTS/$name/.raylab-root" ] || die "no root $name: run ensure first"; in_root "$name" "$@" ;;
-  *) echo "usage: tools/debian_root.sh ensure NAME SUITE [PACKAGE...] | run NAME COMMAND..."; exit 2 ;;
+  *) echo "usage: tools/debian_root.sh ensure NAME SUITE [PACKAGE...] | install NAME PACKAGE... | run NAME COMMAND..."; exit 2 ;;
 esac

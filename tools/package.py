@@ -1,19 +1,27 @@
-"""./raylab package: the add-on as a Blender extension (4.2+) and as a legacy add-on zip (3.x).
+"""./raylab package: raylab as users install it.
 
-    out/raylab-<version>-linux-x64.zip         extension: blender_manifest.toml at the top, install with
-                                               Edit > Preferences > Get Extensions > Install from Disk
-    out/raylab-<version>-addon-linux-x64.zip   legacy add-on (a raylab/ folder): Preferences > Add-ons > Install
+    out/wheels/raylab_core-<version>-cp3XX-cp3XX-manylinux_2_34_x86_64.whl
+        the native core for one Python (`raylab_core._raylab`, its TBB and tinyobjloader beside it in
+        raylab_core/libs/) with the plain-Python library `raylab`: `pip install` it into any Python of
+        that version and `import raylab` works, no Blender needed.
+    out/raylab-<version>-linux-x64.zip
+        the extension for Blender 4.2 and later: the add-on, the levels and those wheels, listed under
+        `wheels` in blender_manifest.toml. Made and checked by Blender's own `extension build` and
+        `extension validate` (a Blender 4.2+ here, or the cached sid root's 5.2); Blender installs the
+        wheel that matches its Python.
+    out/raylab-<version>-addon-linux-x64.zip
+        the legacy add-on for Blender 3.x (a raylab/ folder, the modules loose in it, libs/cpXY/).
 
-Both carry the native module `_raylab` of every Python it was staged for, each self-contained the way
-manylinux wheels are: the shared libraries it needs beyond glibc, libstdc++ and Python (TBB,
-tinyobjloader) are copied to libs/cpXY/, renamed with a hash of their contents so that they never clash
-with a library of the same name that Blender loaded first, and found through an $ORIGIN run path.
+Every shipped library is self-contained the way manylinux wheels are: what the module needs beyond
+glibc, libstdc++ and Python is copied beside it, renamed with a hash of its contents (so that it never
+clashes with a library of the same name Blender loaded first) and found through an $ORIGIN run path.
 OpenImageIO is not among them: it lives in `_raylab_images`, which is left out (api.write_image goes
 through Blender's writer instead).
 
-Staging runs for the Python that runs this script (/usr/bin/python3, Blender's Python on Debian) and
-keeps its result in out/native/cpXY/, so packaging once on Debian 12 (Python 3.11) and once in the
-Debian 13 root (3.13) gives zips that work in both Blenders.
+One build host makes every module: the Python running this script from the normal build, and with
+--all-pythons the other Pythons of the Blenders raylab serves, compiled here against the headers (Python
+and pybind11) of the cached Debian root that has that Python. A CPython extension does not link
+libpython, so the host's glibc and libstdc++ alone decide what the modules need: GLIBC_BASELINE.
 """
 import argparse
 import ast
@@ -30,15 +38,37 @@ import zipfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ADDON = os.path.join(ROOT, "addon", "raylab")
 LEVELS = os.path.join(ROOT, "levels")
+ROOTS = os.environ.get("RAYLAB_ROOTS", "/var/cache/raylab")
 SKIP_DIRS = {"__pycache__"}
 # What every Linux with a Blender has: the C library, the C++ runtime, the loader, Python itself.
 BASE_LIBRARIES = re.compile(r"^(linux-vdso|ld-linux.*|libc|libm|libpthread|libdl|librt|libstdc\+\+|libgcc_s|"
                             r"libpython\d\.\d+)\.so")
 PLATFORM = "linux-x64"
+# The newest symbol versions any shipped library may need (Debian 12's toolchain: glibc 2.36 whose
+# pthread symbols moved into libc in 2.34, GCC 12's libstdc++ used up to GCC 11's symbols). Systems at or
+# above it: Debian 12+, Ubuntu 22.04+, RHEL/Rocky 9+, Fedora 35+. The README states it; tests check both.
+GLIBC_BASELINE = (2, 34)
+GLIBCXX_BASELINE = (3, 4, 29)
+WHEEL_PLATFORM = f"manylinux_{GLIBC_BASELINE[0]}_{GLIBC_BASELINE[1]}_x86_64"
+# The Pythons of the Blenders raylab serves (official 4.2-5.0: 3.11, official 5.1+: 3.13, Debian sid's
+# 5.2: 3.14) and the cached root (tools/debian_root.sh) whose headers build each one on another host.
+PYTHON_ROOTS = {"3.11": None, "3.13": "debian13", "3.14": "sid"}
+# Bundled code and data, credited in the extension's manifest (licences in the README).
+COPYRIGHT = ["2025-2026 raylab developers",
+             "2005-2021 Intel Corporation (oneTBB, Apache-2.0)",
+             "2012-2019 Syoyo Fujita and many contributors (tinyobjloader, MIT)",
+             "2012 Lee Perry-Smith (goat head mesh, CC BY 3.0)"]
+WEBSITE = "https://github.com/raylab-dev/raylab"
 
 
 def python_tag(version=sys.version_info):
     return f"cp{version[0]}{version[1]}"
+
+
+def tag_of(version):
+    """"3.13" -> "cp313"."""
+    major, minor = version.split(".")
+    return f"cp{major}{minor}"
 
 
 def addon_version():
@@ -65,47 +95,60 @@ def linked_libraries(path):
     return libraries
 
 
+def symbol_versions(path):
+    """{"GLIBC": (2, 34), "GLIBCXX": (3, 4, 29), ...}: the newest version of each library's symbols that
+    the ELF file `path` needs (objdump's dynamic symbol table)."""
+    output = subprocess.run(["objdump", "-T", path], capture_output=True, text=True, check=True).stdout
+    newest = {}
+    for library, version in re.findall(r"\b(GLIBC|GLIBCXX|CXXABI)_(\d+(?:\.\d+)*)\b", output):
+        number = tuple(int(part) for part in version.split("."))
+        newest[library] = max(newest.get(library, number), number)
+    return newest
+
+
+def above_baseline(path):
+    """What `path` needs beyond GLIBC_BASELINE / GLIBCXX_BASELINE, as text ("" when nothing)."""
+    needs = symbol_versions(path)
+    over = [f"{library}_{'.'.join(map(str, needs[library]))}"
+            for library, baseline in (("GLIBC", GLIBC_BASELINE), ("GLIBCXX", GLIBCXX_BASELINE))
+            if needs.get(library, ()) > baseline]
+    return ", ".join(over)
+
+
 def patchelf(*args):
     subprocess.run(["patchelf", *args], check=True)
 
 
-def stage_native(out_dir):
-    """Copies this Python's _raylab module with its libraries into out/native/cpXY/; returns that folder."""
-    suffix = sysconfig.get_config_var("EXT_SUFFIX")
-    module = os.path.join(ADDON, "_raylab" + suffix)
-    if not os.path.exists(module):
-        raise SystemExit(f"package: {os.path.relpath(module, ROOT)} is missing: run ./raylab setup")
+def bundle(module, folder, libs):
+    """Copies `module` into `folder` with the libraries it needs beyond the base system in folder/libs
+    (the relative path `libs`), renamed by content hash and found through $ORIGIN; {soname: bundled}."""
     if shutil.which("patchelf") is None:
         raise SystemExit("package: patchelf is missing (Debian package patchelf): run ./raylab setup")
-    tag = python_tag()
-    stage = os.path.join(out_dir, "native", tag)
-    shutil.rmtree(stage, ignore_errors=True)
-    libs = os.path.join(stage, "libs", tag)
-    os.makedirs(libs)
-    staged_module = os.path.join(stage, os.path.basename(module))
-    shutil.copy2(module, staged_module)
-
-    renamed = {}  # soname -> bundled file name
+    os.makedirs(os.path.join(folder, libs), exist_ok=True)
+    staged = os.path.join(folder, os.path.basename(module))
+    shutil.copy2(module, staged)
+    renamed = {}
     for soname, source in sorted(linked_libraries(module).items()):
         if BASE_LIBRARIES.match(soname):
             continue
         digest = hashlib.sha256(open(source, "rb").read()).hexdigest()[:8]
-        stem, dot, version = soname.partition(".so")
+        stem, _, version = soname.partition(".so")
         renamed[soname] = f"{stem}-{digest}.so{version}"
-        shutil.copy2(source, os.path.join(libs, renamed[soname]))
-    for soname, bundled in renamed.items():
-        path = os.path.join(libs, bundled)
+        shutil.copy2(source, os.path.join(folder, libs, renamed[soname]))
+    bundled = [os.path.join(folder, libs, name) for name in renamed.values()]
+    for path in bundled:
         os.chmod(path, 0o755)
-        patchelf("--set-soname", bundled, path)
+        patchelf("--set-soname", os.path.basename(path), path)
         patchelf("--set-rpath", "$ORIGIN", path)
-    for path in [staged_module] + [os.path.join(libs, b) for b in renamed.values()]:
-        for soname, bundled in renamed.items():
-            patchelf("--replace-needed", soname, bundled, path)
-    patchelf("--set-rpath", f"$ORIGIN/libs/{tag}", staged_module)
-    with open(os.path.join(stage, "build.json"), "w") as file:
-        json.dump({"python": f"{sys.version_info[0]}.{sys.version_info[1]}", "module": os.path.basename(module),
-                   "libraries": renamed, "system": os_release()}, file, indent=2)
-    return stage
+    for path in [staged] + bundled:
+        for soname, name in renamed.items():
+            patchelf("--replace-needed", soname, name, path)
+        over = above_baseline(path)
+        if over:
+            raise SystemExit(f"package: {os.path.basename(path)} needs {over}, above the baseline "
+                             f"GLIBC_{'.'.join(map(str, GLIBC_BASELINE))}: build on an older system")
+    patchelf("--set-rpath", f"$ORIGIN/{libs}", staged)
+    return renamed
 
 
 def os_release():
@@ -116,19 +159,109 @@ def os_release():
         return "unknown"
 
 
-def staged_builds(out_dir):
-    """Every staged native build in out/native, newest Python first: [(tag, folder, build.json)]."""
-    root = os.path.join(out_dir, "native")
-    builds = []
-    for tag in sorted(os.listdir(root), reverse=True):
-        info = os.path.join(root, tag, "build.json")
-        if os.path.exists(info):
-            builds.append((tag, os.path.join(root, tag), json.load(open(info))))
-    return builds
+# --- the modules -------------------------------------------------------------------------------------
+
+def this_python_module():
+    """The normal build's module for the Python running this script."""
+    module = os.path.join(ADDON, "_raylab" + sysconfig.get_config_var("EXT_SUFFIX"))
+    if not os.path.exists(module):
+        raise SystemExit(f"package: {os.path.relpath(module, ROOT)} is missing: run ./raylab setup")
+    return module
 
 
-def manifest(version, pythons):
+def root_headers(version):
+    """The cached root holding Python `version`'s headers and pybind11's, or an exit saying how to get it."""
+    name = PYTHON_ROOTS[version]
+    root = os.path.join(ROOTS, name)
+    needed = [f"usr/include/python{version}", f"usr/include/x86_64-linux-gnu/python{version}", "usr/include/pybind11"]
+    missing = [path for path in needed if not os.path.isdir(os.path.join(root, path))]
+    if missing:
+        raise SystemExit(f"package: the module for Python {version} is built with the headers of the {name} "
+                         f"root, which lacks {', '.join(missing)}: run ./raylab test --root {name} (or "
+                         f"tools/debian_root.sh install {name} python3-dev pybind11-dev)")
+    return root, needed
+
+
+def other_python_module(version):
+    """Builds the module for Python `version` on this host against a root's headers; returns its path."""
+    root, headers = root_headers(version)
+    tag = tag_of(version)
+    work = os.path.join(ROOT, "build-wheels", tag)
+    include = os.path.join(work, "include")
+    shutil.rmtree(include, ignore_errors=True)
+    for path in headers:  # only these folders: the root's own C library headers must stay out
+        shutil.copytree(os.path.join(root, path), os.path.join(include, os.path.relpath(path, "usr/include")))
+    suffix = f".cpython-{tag[2:]}-x86_64-linux-gnu.so"
+    build = os.path.join(work, "build")
+    if not os.path.exists(os.path.join(build, "build.ninja")):
+        subprocess.run(["cmake", "-S", ROOT, "-B", build, "-G", "Ninja", "-DCMAKE_BUILD_TYPE=Release",
+                        f"-DRAYLAB_WHEEL_INCLUDE={include}", f"-DRAYLAB_WHEEL_SUFFIX={suffix}",
+                        f"-DRAYLAB_MODULE_DIR={os.path.join(work, 'module')}"], check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(["cmake", "--build", build, "--target", "_raylab", "--", f"-j{os.cpu_count()}"], check=True,
+                   stdout=subprocess.DEVNULL)
+    return os.path.join(work, "module", "_raylab" + suffix)
+
+
+def modules(all_pythons):
+    """{python version: module path}: this Python's, and with all_pythons every other one raylab serves."""
+    running = f"{sys.version_info[0]}.{sys.version_info[1]}"
+    found = {running: this_python_module()}
+    if all_pythons:
+        for version in PYTHON_ROOTS:
+            if version != running:
+                found[version] = other_python_module(version)
+    return found
+
+
+# --- the wheels --------------------------------------------------------------------------------------
+
+def library_files():
+    """The plain-Python library `raylab`: the add-on folder's top-level modules (blender/ is the add-on)."""
+    return sorted(name for name in os.listdir(ADDON) if name.endswith(".py"))
+
+
+def make_wheel(version, module, out_dir):
+    """out/wheels/raylab_core-<version>-cpXY-cpXY-<WHEEL_PLATFORM>.whl for one module; returns its path."""
+    tag = tag_of(version)
+    stage = os.path.join(out_dir, "wheel-stage", tag)
+    shutil.rmtree(stage, ignore_errors=True)
+    core = os.path.join(stage, "raylab_core")
+    os.makedirs(core)
+    renamed = bundle(module, core, "libs")
+    with open(os.path.join(core, "__init__.py"), "w") as file:
+        file.write('"""raylab\'s native core (`raylab_core._raylab`); the API is `import raylab`."""\n')
+    os.makedirs(os.path.join(stage, "raylab"))
+    for name in library_files():
+        shutil.copy2(os.path.join(ADDON, name), os.path.join(stage, "raylab", name))
+    release = addon_version()
+    info = os.path.join(stage, f"raylab_core-{release}.dist-info")
+    os.makedirs(info)
+    with open(os.path.join(info, "METADATA"), "w") as file:
+        file.write(f"Metadata-Version: 2.1\nName: raylab_core\nVersion: {release}\n"
+                   "Summary: See and measure ray-tracing acceleration structures (raylab's core and Python API)\n"
+                   f"Home-page: {WEBSITE}\nLicense: GPL-3.0-or-later\nRequires-Python: =={version}.*\n"
+                   "Requires-Dist: numpy\n")
+    with open(os.path.join(info, "WHEEL"), "w") as file:
+        file.write(f"Wheel-Version: 1.0\nGenerator: raylab package.py\nRoot-Is-Purelib: false\n"
+                   f"Tag: {tag}-{tag}-{WHEEL_PLATFORM}\n")
+    wheels = os.path.join(out_dir, "wheels")
+    os.makedirs(wheels, exist_ok=True)
+    target = os.path.join(wheels, f"raylab_core-{release}-{tag}-{tag}-{WHEEL_PLATFORM}.whl")
+    if os.path.exists(target):
+        os.remove(target)
+    subprocess.run([sys.executable, "-m", "wheel", "pack", stage, "-d", wheels], check=True,
+                   stdout=subprocess.DEVNULL)
+    if not os.path.exists(target):
+        raise SystemExit(f"package: wheel pack did not write {target}")
+    return target, renamed
+
+
+# --- the extension and the legacy add-on -------------------------------------------------------------
+
+def manifest(version, wheels):
     """blender_manifest.toml (schema 1.0.0) of the extension."""
+    listed = ",\n  ".join(f'"./wheels/{os.path.basename(w)}"' for w in wheels)
+    copyright_lines = ",\n  ".join(f'"{line}"' for line in COPYRIGHT)
     return f'''schema_version = "1.0.0"
 
 id = "raylab"
@@ -137,16 +270,22 @@ name = "raylab"
 tagline = "See and measure ray-tracing acceleration structures"
 maintainer = "raylab developers"
 type = "add-on"
+website = "{WEBSITE}"
 tags = ["Render", "3D View"]
 
-# The native module is built for Python {" and ".join(pythons)}; in a Blender with another Python the
-# add-on's preferences say which build it needs.
 blender_version_min = "4.2.0"
 license = ["SPDX:GPL-3.0-or-later"]
+copyright = [
+  {copyright_lines},
+]
 platforms = ["{PLATFORM}"]
+# The native core, one wheel per Python (Blender installs the one matching its own).
+wheels = [
+  {listed},
+]
 
 [permissions]
-files = "Reads mesh files and writes rendered images"
+files = "Reads mesh files and writes rendered images and charts"
 '''
 
 
@@ -159,39 +298,113 @@ def add_tree(zf, source, arcroot, skip=lambda name: False):
                 zf.write(path, os.path.join(arcroot, os.path.relpath(path, source)))
 
 
-def write_zip(target, arcroot, builds, extra=None):
-    """The add-on folder without the development build's modules, the staged modules, the levels, the README."""
-    def development_module(relative):
-        return re.fullmatch(r"_raylab(_images)?\..*\.so", relative) is not None
+def copy_tree(source, target, skip=lambda name: False):
+    for folder, dirs, files in os.walk(source):
+        dirs[:] = sorted(d for d in dirs if d not in SKIP_DIRS)
+        for name in sorted(files):
+            path = os.path.join(folder, name)
+            relative = os.path.relpath(path, source)
+            if not skip(relative):
+                os.makedirs(os.path.dirname(os.path.join(target, relative)), exist_ok=True)
+                shutil.copy2(path, os.path.join(target, relative))
 
+
+def development_file(relative):
+    """The development build's modules and their staged libraries: never shipped as they are."""
+    return re.fullmatch(r"_raylab(_images)?\..*\.so", relative) is not None or relative.startswith("libs/")
+
+
+def extension_blender(paths):
+    """How to run a Blender 4.2+ with `paths` visible: (command prefix, path mapper), or None. Blender here
+    when it is 4.2+, else the cached sid root's (the checkout is /raylab there)."""
+    if shutil.which("blender"):
+        line = subprocess.run(["blender", "--version"], capture_output=True, text=True).stdout.split("\n")[0]
+        if tuple(int(p) for p in line.split()[1].split(".")[:2]) >= (4, 2):
+            return ["blender"], lambda path: path
+    sid = os.path.join(ROOTS, PYTHON_ROOTS["3.14"])
+    inside = all(os.path.abspath(p).startswith(ROOT + os.sep) for p in paths)
+    if inside and os.path.exists(os.path.join(sid, "usr/bin/blender")) and os.geteuid() == 0:
+        return ([os.path.join(ROOT, "tools", "debian_root.sh"), "run", PYTHON_ROOTS["3.14"], "blender"],
+                lambda path: "/raylab/" + os.path.relpath(os.path.abspath(path), ROOT))
+    return None
+
+
+def build_extension(out_dir, version, wheels):
+    """Stages the extension and has Blender build and validate it; returns (zip, validate's output or None)."""
+    stage = os.path.join(out_dir, "extension-stage")
+    shutil.rmtree(stage, ignore_errors=True)
+    copy_tree(ADDON, stage, skip=development_file)
+    if os.path.isdir(LEVELS):
+        copy_tree(LEVELS, os.path.join(stage, "levels"))
+    shutil.copy2(os.path.join(ROOT, "README.md"), os.path.join(stage, "README.md"))  # the Documentation button
+    os.makedirs(os.path.join(stage, "wheels"))
+    for wheel in wheels:
+        shutil.copy2(wheel, os.path.join(stage, "wheels"))
+    with open(os.path.join(stage, "blender_manifest.toml"), "w") as file:
+        file.write(manifest(version, wheels))
+    target = os.path.join(out_dir, f"raylab-{version}-{PLATFORM}.zip")
+    if os.path.exists(target):
+        os.remove(target)
+    blender = extension_blender([stage, target])
+    if blender is None:  # no Blender 4.2+ reachable: the same files, zipped here, not validated
+        with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as zf:
+            add_tree(zf, stage, "")
+        return target, None
+    command, mapped = blender
+    base = command + ["-b", "--factory-startup", "--command", "extension"]
+    run = subprocess.run(base + ["build", "--source-dir", mapped(stage), "--output-filepath", mapped(target)],
+                         capture_output=True, text=True)
+    if run.returncode != 0 or not os.path.exists(target):
+        raise SystemExit(f"package: blender --command extension build failed:\n{run.stdout}{run.stderr}")
+    run = subprocess.run(base + ["validate", mapped(target)], capture_output=True, text=True)
+    report = (run.stdout + run.stderr).strip()
+    if run.returncode != 0:
+        raise SystemExit(f"package: blender --command extension validate failed:\n{report}")
+    return target, report
+
+
+def write_legacy(out_dir, version, modules_by_version):
+    """The add-on zip for Blender 3.x: the modules loose in raylab/, their libraries in libs/cpXY/."""
+    stage = os.path.join(out_dir, "legacy-stage")
+    shutil.rmtree(stage, ignore_errors=True)
+    for version_, module in modules_by_version.items():
+        bundle(module, stage, f"libs/{tag_of(version_)}")
+    target = os.path.join(out_dir, f"raylab-{version}-addon-{PLATFORM}.zip")
     with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as zf:
-        add_tree(zf, ADDON, arcroot, skip=development_module)
-        for _, folder, _ in builds:
-            add_tree(zf, folder, arcroot, skip=lambda relative: relative == "build.json")
+        add_tree(zf, ADDON, "raylab", skip=development_file)
+        add_tree(zf, stage, "raylab")
         if os.path.isdir(LEVELS):
-            add_tree(zf, LEVELS, os.path.join(arcroot, "levels"))
-        # The Preferences' Documentation button opens it.
-        zf.write(os.path.join(ROOT, "README.md"), os.path.join(arcroot, "README.md"))
-        for name, text in (extra or {}).items():
-            zf.writestr(os.path.join(arcroot, name), text)
+            add_tree(zf, LEVELS, "raylab/levels")
+        zf.write(os.path.join(ROOT, "README.md"), "raylab/README.md")
+    return target
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", default=os.path.join(ROOT, "out"), help="folder of the zips (default out/)")
+    parser.add_argument("--out", default=os.path.join(ROOT, "out"), help="folder of the packages (default out/)")
+    parser.add_argument("--all-pythons", action="store_true",
+                        help=f"also build the modules of Python {', '.join(PYTHON_ROOTS)} with the cached roots' headers")
     args = parser.parse_args()
     out_dir = os.path.abspath(args.out)
-    stage_native(out_dir)
-    builds = staged_builds(out_dir)
     version = addon_version()
-    pythons = [info["python"] for _, _, info in builds]
-    extension = os.path.join(out_dir, f"raylab-{version}-{PLATFORM}.zip")
-    legacy = os.path.join(out_dir, f"raylab-{version}-addon-{PLATFORM}.zip")
-    write_zip(extension, "", builds, extra={"blender_manifest.toml": manifest(version, pythons)})
-    write_zip(legacy, "raylab", builds)
-    for _, _, info in builds:
-        print(f"package: native module for Python {info['python']} ({info['system']}), bundling "
-              f"{', '.join(info['libraries'].values()) or 'nothing'}")
+    found = modules(args.all_pythons)
+    if os.path.isdir(os.path.join(out_dir, "wheels")):
+        shutil.rmtree(os.path.join(out_dir, "wheels"))
+    wheels = []
+    for python, module in sorted(found.items()):
+        wheel, renamed = make_wheel(python, module, out_dir)
+        wheels.append(wheel)
+        needs = symbol_versions(module)
+        print(f"package: {os.path.basename(wheel)} (Python {python}; needs "
+              + ", ".join(f"{k}_{'.'.join(map(str, v))}" for k, v in sorted(needs.items()))
+              + f"; bundles {', '.join(renamed.values()) or 'nothing'})")
+    extension, report = build_extension(out_dir, version, wheels)
+    legacy = write_legacy(out_dir, version, found)
+    with open(os.path.join(out_dir, "package.json"), "w") as file:
+        json.dump({"version": version, "wheels": [os.path.basename(w) for w in wheels],
+                   "extension": os.path.basename(extension), "legacy": os.path.basename(legacy),
+                   "validate": report, "system": os_release()}, file, indent=2)
+    print(f"package: extension validate: {report if report is not None else 'not run (no Blender 4.2+ here)'}")
     for path in (extension, legacy):
         print(f"package: wrote {path} ({os.path.getsize(path) / 1e6:.1f} MB)")
 

@@ -17,7 +17,7 @@ build over the memory budget raises BuildError.
 import math
 import sys
 
-from . import _raylab
+from .native import core as _raylab  # beside this file or from the raylab_core wheel
 from .heat import HEAT_COLOURS, heat_legend, heat_map, heat_scale_text, heat_ticks  # noqa: F401 (numpy only)
 
 __all__ = [

@@ -1,8 +1,11 @@
 """The native core, _raylab: loads it, or says in one sentence why it cannot.
 
-A build of raylab carries the native module for one or more Pythons (`_raylab.cpython-311-….so`, …): the
-module is compiled against one Python's ABI. In a Blender whose Python is another one, the add-on still
-registers and its preferences say which Python the build needs, instead of a traceback.
+The module is compiled against one Python's ABI, and it comes in one of two ways: beside this file
+(`_raylab.cpython-311-….so`: the development build, the legacy add-on zip), or as the `raylab_core` wheel
+(`raylab_core._raylab`: pip, and the 4.2+ extension, which lists one wheel per Python in its manifest and
+keeps them in wheels/; Blender installs the one matching its Python). In a Blender whose Python has no
+module, the add-on still registers and its preferences say which Python the build needs, instead of a
+traceback.
 """
 import importlib
 import os
@@ -15,8 +18,11 @@ PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
 def built_for():
     """The Python versions ("3.11", ...) whose native module this copy of raylab carries."""
     versions = set()
-    for name in os.listdir(PACKAGE_DIR):
-        match = re.fullmatch(r"_raylab\.cpython-(\d)(\d+)\S*\.so", name)
+    wheels = os.path.join(PACKAGE_DIR, "wheels")
+    names = os.listdir(PACKAGE_DIR) + (os.listdir(wheels) if os.path.isdir(wheels) else [])
+    for name in names:
+        match = (re.fullmatch(r"_raylab\.cpython-(\d)(\d+)\S*\.so", name)
+                 or re.fullmatch(r"raylab_core-[^-]+-cp(\d)(\d+)-\S+\.whl", name))
         if match:
             versions.add(f"{match[1]}.{match[2]}")
     return sorted(versions, key=lambda v: tuple(map(int, v.split("."))))
@@ -26,7 +32,10 @@ def _load():
     """(module, None) or (None, the reason it cannot be loaded, for a person)."""
     running = f"{sys.version_info.major}.{sys.version_info.minor}"
     try:
-        return importlib.import_module("._raylab", __package__), None
+        try:
+            return importlib.import_module("._raylab", __package__), None
+        except ModuleNotFoundError:
+            return importlib.import_module("raylab_core._raylab"), None
     except ImportError as error:
         versions = built_for()
         if running not in versions:

@@ -11,7 +11,7 @@ import pytest
 
 import raylab
 from raylab import _raylab_images
-from raylab.blender import cost_passes, default_scene, properties, scene_export
+from raylab.blender import compat, cost_passes, default_scene, properties, scene_export
 
 RESOLUTION = (60, 45)
 
@@ -42,7 +42,7 @@ def render_exr(scene):
     """F12 with multilayer EXR output written to disk: {channel name: (H, W) float32, row 0 the top}."""
     with tempfile.TemporaryDirectory(prefix="raylab_passes_") as folder:
         path = os.path.join(folder, "render.exr")
-        scene.render.image_settings.file_format = 'OPEN_EXR_MULTILAYER'
+        compat.set_multilayer_exr(scene.render.image_settings)
         scene.render.image_settings.color_depth = '32'
         scene.render.filepath = path
         bpy.ops.render.render(write_still=True)
@@ -68,8 +68,7 @@ def api_counts(scene):
 
 
 def render_layers_node(scene, view_layer):
-    scene.use_nodes = True
-    node = next(n for n in scene.node_tree.nodes if n.type == 'R_LAYERS')
+    node = compat.render_layers_node(scene)
     node.layer = view_layer.name
     return node
 

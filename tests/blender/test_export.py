@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import raylab
-from raylab.blender import scene_export
+from raylab.blender import compat, scene_export
 
 WIDTH, HEIGHT = 96, 72
 
@@ -185,8 +185,7 @@ def test_text_is_exported_as_blender_meshes_it(busy_scene):
 
 def test_principled_material_and_object_colour_fallback(busy_scene):
     material = bpy.data.materials.new("Brass")
-    material.use_nodes = True
-    bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf = compat.use_node_tree(material).nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (0.9, 0.6, 0.2, 1.0)
     bsdf.inputs["Metallic"].default_value = 1.0
     bsdf.inputs["Roughness"].default_value = 0.2

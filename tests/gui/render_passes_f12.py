@@ -16,7 +16,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.p
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import blender_window  # noqa: E402
 import raylab  # noqa: E402
-from raylab.blender import cost_passes, render_stats  # noqa: E402
+from raylab.blender import compat, cost_passes, render_stats  # noqa: E402
 
 REPORT, EXR, SCREENSHOT = (os.path.abspath(p) for p in sys.argv[sys.argv.index("--") + 1:][:3])
 HEAT_MAXIMUM = 100.0
@@ -67,7 +67,7 @@ def wait_for_render():
         report["last_render"] = scene[render_stats.LAST_RENDER].to_dict()
         report["view_layer"] = scene.view_layers[0].name
         blender_window.screenshot(SCREENSHOT)
-        scene.render.image_settings.file_format = 'OPEN_EXR_MULTILAYER'
+        compat.set_multilayer_exr(scene.render.image_settings)
         scene.render.image_settings.color_depth = '32'
         bpy.data.images["Render Result"].save_render(EXR, scene=scene)
         finish()

@@ -64,3 +64,92 @@ def update_render_passes(view_layer):
     update = getattr(view_layer, "update_render_passes", None)
     if update is not None:
         update()
+
+
+# --- 5.0: materials and worlds always use their node trees ---------------------------------------------
+# `use_nodes` of materials and worlds does nothing since 5.0 and warns on every read and write (removal
+# in 6.0). Whether it still means something is a release fact, not a property to probe: reading it is
+# what warns.
+NODES_ALWAYS = None
+
+
+def _nodes_always():
+    import bpy
+    return bpy.app.version >= (5, 0)
+
+
+def node_tree(idblock):
+    """The node tree a material or world shades with, or None where it shades without nodes."""
+    global NODES_ALWAYS
+    if NODES_ALWAYS is None:
+        NODES_ALWAYS = _nodes_always()
+    if NODES_ALWAYS or idblock.use_nodes:
+        return idblock.node_tree
+    return None
+
+
+def use_node_tree(idblock):
+    """Makes a material or world shade with its node tree (a no-op since 5.0) and returns the tree."""
+    global NODES_ALWAYS
+    if NODES_ALWAYS is None:
+        NODES_ALWAYS = _nodes_always()
+    if not NODES_ALWAYS:
+        idblock.use_nodes = True
+    return idblock.node_tree
+
+
+def set_world_colour(world, colour):
+    """A plain background colour (linear RGB) as every release renders it: the Background node's colour at
+    strength 1 (since 5.0 the only way: a world without nodes is gone), and the world's viewport colour."""
+    world.color = colour
+    background = next(node for node in use_node_tree(world).nodes if node.type == 'BACKGROUND')
+    background.inputs["Color"].default_value = (*colour, 1.0)
+    background.inputs["Strength"].default_value = 1.0
+
+
+# --- 5.0: the file format of a multilayer EXR, and the compositor's node group --------------------------
+
+def set_multilayer_exr(image_settings):
+    """Render output as one multilayer OpenEXR file (every pass): 5.0 made it the OpenEXR format with the
+    multilayer media type; before, a format of its own."""
+    if "media_type" in image_settings.bl_rna.properties:
+        image_settings.media_type = 'MULTI_LAYER_IMAGE'
+        image_settings.file_format = 'OPEN_EXR'
+    else:
+        image_settings.file_format = 'OPEN_EXR_MULTILAYER'
+
+
+def compositor_tree(scene):
+    """The scene's compositor node tree, made when missing: 5.0 turned Scene.node_tree (with use_nodes) into
+    a node group of its own, Scene.compositing_node_group, which starts empty."""
+    import bpy
+    if hasattr(scene, "compositing_node_group"):
+        if scene.compositing_node_group is None:
+            scene.compositing_node_group = bpy.data.node_groups.new("Compositor", 'CompositorNodeTree')
+        return scene.compositing_node_group
+    scene.use_nodes = True
+    return scene.node_tree
+
+
+def render_layers_node(scene):
+    """The compositor's Render Layers node (added when the tree has none)."""
+    tree = compositor_tree(scene)
+    node = next((n for n in tree.nodes if n.type == 'R_LAYERS'), None)
+    return node if node is not None else tree.nodes.new('CompositorNodeRLayers')
+
+
+# --- 4.5: a light's power with exposure and normalize ---------------------------------------------------
+
+def light_power(light):
+    """The power the renderer gives a light, as Cycles and EEVEE read it: energy times 2^exposure (4.5+),
+    and for an area light whose Normalize is off (4.5+) times its area (the energy is then per square
+    metre: the light grows brighter with its size)."""
+    power = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+    if light.type == 'AREA' and not getattr(light, "normalize", True):
+        if light.shape in ('SQUARE', 'DISK'):
+            width = height = light.size
+        else:
+            width, height = light.size, light.size_y
+        area = width * height * (0.25 * 3.141592653589793 if light.shape in ('DISK', 'ELLIPSE') else 1.0)
+        power *= area
+    return power

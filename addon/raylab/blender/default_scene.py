@@ -10,6 +10,7 @@ import bpy
 import numpy as np
 
 from .. import api
+from . import compat
 from .mesh_data import mesh_from_arrays, principled_material
 
 GOAT_PATH = os.path.join(os.path.dirname(api.__file__), "meshes", "goathead.obj")
@@ -51,8 +52,7 @@ def build_default_scene(scene, resolution=(320, 240)):
 
     if scene.world is None:
         scene.world = bpy.data.worlds.new("World")
-    scene.world.use_nodes = False
-    scene.world.color = (0.05, 0.07, 0.1)
+    compat.set_world_colour(scene.world, (0.05, 0.07, 0.1))
     scene.render.resolution_x, scene.render.resolution_y = resolution
     scene.render.resolution_percentage = 100
     # raylab's image is linear light: show it through the plain sRGB transform, not Filmic.

@@ -12,6 +12,22 @@ _CORNER_BITS = np.array([[(c >> axis) & 1 for axis in range(3)] for c in range(8
 
 THIN = 'SMOOTH_COLOR'            # 1-pixel lines and points: cheap even for 100k boxes
 THICK = 'POLYLINE_SMOOTH_COLOR'  # wide lines (a geometry shader): for the few lines that stand out
+# Points of a given size: 4.0+ has point shaders whose size is a uniform (on Vulkan and Metal the only
+# size a point gets); 3.x draws them with THIN and the GL point size.
+POINTS = 'POINT_FLAT_COLOR'
+_point_shader = []
+
+
+def point_shader_name():
+    """POINTS where this Blender has it, else THIN (asked once, when first drawing)."""
+    if not _point_shader:
+        import gpu
+        try:
+            gpu.shader.from_builtin(POINTS)
+            _point_shader.append(POINTS)
+        except ValueError:
+            _point_shader.append(THIN)
+    return _point_shader[0]
 
 
 def tag_redraw(context=None):
@@ -49,6 +65,9 @@ def draw_batch(batch, model_matrix, xray, shader_name=THIN, width=1.0, point_siz
         shader.bind()
         shader.uniform_float("viewportSize", gpu.state.viewport_get()[2:])
         shader.uniform_float("lineWidth", width)
+    elif shader_name == POINTS:
+        shader.bind()
+        shader.uniform_float("size", point_size)
     with gpu.matrix.push_pop():
         gpu.matrix.multiply_matrix(Matrix(np.asarray(model_matrix).tolist()))
         batch.draw(shader)
@@ -71,4 +90,6 @@ def draw_points(points, color, xray, size):
     positions = np.ascontiguousarray(points, dtype=np.float32)
     color = np.asarray(color, dtype=np.float32)
     colors = np.ascontiguousarray(color if color.ndim == 2 else np.tile(color, (len(points), 1)))
-    draw_batch(make_batch('POINTS', positions, colors), np.identity(4), xray, point_size=size)
+    shader = point_shader_name()
+    draw_batch(make_batch('POINTS', positions, colors, shader_name=shader), np.identity(4), xray, shader,
+               point_size=size)

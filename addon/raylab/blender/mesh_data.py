@@ -52,8 +52,7 @@ def mesh_from_arrays(name, vertices, triangles, smooth=False):
 
 def principled_material(name, colour, roughness=0.5, metallic=0.0):
     material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf = compat.use_node_tree(material).nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
     bsdf.inputs["Roughness"].default_value = roughness
     bsdf.inputs["Metallic"].default_value = metallic

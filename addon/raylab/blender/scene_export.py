@@ -147,9 +147,10 @@ def export_material(material):
 
 
 def _principled_bsdf(material):
-    if not material.use_nodes or material.node_tree is None:
+    tree = compat.node_tree(material)
+    if tree is None:
         return None
-    nodes = material.node_tree.nodes
+    nodes = tree.nodes
     for output in nodes:
         if output.type == 'OUTPUT_MATERIAL' and output.is_active_output and output.inputs["Surface"].links:
             linked = output.inputs["Surface"].links[0].from_node
@@ -174,7 +175,7 @@ def _phong_material(colour, metallic, roughness, specular, transmission=0.0, ior
 
 
 def _light(light, matrix_world):
-    exported = dict(type=light.type, color=tuple(light.color), energy=float(light.energy),
+    exported = dict(type=light.type, color=tuple(light.color), energy=compat.light_power(light),
                     matrix_world=np.array(matrix_world, np.float64),
                     radius=float(getattr(light, "shadow_soft_size", 0.0)), shadows=bool(light.use_shadow))
     if light.type == 'SPOT':
@@ -190,8 +191,9 @@ def world_colour(world):
     """The world's background colour times strength (Background node, else the world colour)."""
     if world is None:
         return (0.0, 0.0, 0.0)
-    if world.use_nodes and world.node_tree is not None:
-        for node in world.node_tree.nodes:
+    tree = compat.node_tree(world)
+    if tree is not None:
+        for node in tree.nodes:
             if node.type == 'BACKGROUND':
                 strength = node.inputs["Strength"].default_value
                 return tuple(float(c) * strength for c in node.inputs["Color"].default_value[:3])

@@ -8,6 +8,7 @@ import re
 import bpy
 from mathutils import Matrix, Vector
 
+from .. import compat
 from ..mesh_data import mesh_from_arrays, principled_material
 from .meshes import mesh_credit, normalised, object_mesh_arrays, shipped_mesh_arrays
 from .reading import LevelError, available_levels, find_level
@@ -138,11 +139,7 @@ def _new_world(level):
     [scene] world = [r, g, b] sets its colour (linear)."""
     world = bpy.data.worlds.new(f"raylab: {level.title}")
     colour = tuple(float(c) for c in level.scene.get("world", WORLD_COLOUR))
-    world.color = colour
-    world.use_nodes = True
-    background = next(node for node in world.node_tree.nodes if node.type == 'BACKGROUND')
-    background.inputs["Color"].default_value = (*colour, 1.0)
-    background.inputs["Strength"].default_value = 1.0
+    compat.set_world_colour(world, colour)
     return world
 
 
