@@ -38,15 +38,40 @@ def enable(scene, names, cost_rays="all"):
     passes.cost_rays = cost_rays
 
 
+# 5.x writes only Combined into a render's multilayer EXR output (Cycles' passes too, 5.2.2): there the
+# passes are read as the engine filled them, through compat.set_pass_pixels, the one door to a pass.
+OUTPUT_FILE_HAS_PASSES = bpy.app.version < (5, 0)
+
+
 def render_exr(scene):
     """F12 with multilayer EXR output written to disk: {channel name: (H, W) float32, row 0 the top}."""
+    filled = {}
+    fill = compat.set_pass_pixels
+
+    def spy(render_pass, pixels):
+        filled[render_pass.name] = (np.asarray(pixels, np.float32).reshape(
+            scene.render.resolution_y, scene.render.resolution_x, -1)[::-1], render_pass.channels)
+        fill(render_pass, pixels)
+
     with tempfile.TemporaryDirectory(prefix="raylab_passes_") as folder:
         path = os.path.join(folder, "render.exr")
-        compat.set_multilayer_exr(scene.render.image_settings)
+        compat.set_file_format(scene.render.image_settings, 'OPEN_EXR_MULTILAYER')
         scene.render.image_settings.color_depth = '32'
         scene.render.filepath = path
-        bpy.ops.render.render(write_still=True)
-        return _raylab_images.read_channels(path)
+        compat.set_pass_pixels = spy
+        try:
+            bpy.ops.render.render(write_still=True)
+        finally:
+            compat.set_pass_pixels = fill
+        channels = _raylab_images.read_channels(path)
+    layer = scene.view_layers[0].name
+    assert f"{layer}.Combined.R" in channels
+    if not OUTPUT_FILE_HAS_PASSES:
+        for name, (pixels, count) in filled.items():
+            ids = cost_passes.CHANNEL_ID if count == 1 else "RGBA"
+            for index, id_ in enumerate(ids):
+                channels.setdefault(f"{layer}.{name}.{id_}", pixels[:, :, index])
+    return channels
 
 
 def channel(scene, pass_name):
@@ -68,6 +93,8 @@ def api_counts(scene):
 
 
 def render_layers_node(scene, view_layer):
+    """A Render Layers node of a compositor tree made for asking; the caller removes the tree again
+    (compat.remove_compositor) before rendering: 5.2 aborts a render whose compositor group has no output."""
     node = compat.render_layers_node(scene)
     node.layer = view_layer.name
     return node
@@ -79,7 +106,10 @@ def outputs(node):
 
 def render_layer_outputs(scene):
     """The outputs the compositor's Render Layers node offers: what the first View Layer registered."""
-    return outputs(render_layers_node(scene, scene.view_layers[0]))
+    try:
+        return outputs(render_layers_node(scene, scene.view_layers[0]))
+    finally:
+        compat.remove_compositor(scene)
 
 
 def test_the_view_layer_registers_the_passes_it_enables(demo_scene):
@@ -101,6 +131,7 @@ def test_each_view_layer_delivers_the_passes_it_enables(demo_scene):
         assert raylab.COST_PASSES[0] in outputs(node)
         assert raylab.COST_PASSES[0] not in outputs(render_layers_node(demo_scene, first))
     finally:
+        compat.remove_compositor(demo_scene)
         demo_scene.view_layers.remove(second)
 
 

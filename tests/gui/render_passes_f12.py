@@ -67,7 +67,7 @@ def wait_for_render():
         report["last_render"] = scene[render_stats.LAST_RENDER].to_dict()
         report["view_layer"] = scene.view_layers[0].name
         blender_window.screenshot(SCREENSHOT)
-        compat.set_multilayer_exr(scene.render.image_settings)
+        compat.set_file_format(scene.render.image_settings, 'OPEN_EXR_MULTILAYER')
         scene.render.image_settings.color_depth = '32'
         bpy.data.images["Render Result"].save_render(EXR, scene=scene)
         finish()

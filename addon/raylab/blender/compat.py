@@ -109,14 +109,13 @@ def set_world_colour(world, colour):
 
 # --- 5.0: the file format of a multilayer EXR, and the compositor's node group --------------------------
 
-def set_multilayer_exr(image_settings):
-    """Render output as one multilayer OpenEXR file (every pass): 5.0 made it the OpenEXR format with the
-    multilayer media type; before, a format of its own."""
+def set_file_format(image_settings, file_format):
+    """Render output as `file_format` ('PNG', 'OPEN_EXR', ... or 'OPEN_EXR_MULTILAYER', one file of every
+    pass). 5.0 put a media type over the format: a multilayer EXR is the multilayer media type's only
+    format, and the single-layer ones belong to the image media type, so the type is set first."""
     if "media_type" in image_settings.bl_rna.properties:
-        image_settings.media_type = 'MULTI_LAYER_IMAGE'
-        image_settings.file_format = 'OPEN_EXR'
-    else:
-        image_settings.file_format = 'OPEN_EXR_MULTILAYER'
+        image_settings.media_type = 'MULTI_LAYER_IMAGE' if file_format == 'OPEN_EXR_MULTILAYER' else 'IMAGE'
+    image_settings.file_format = file_format
 
 
 def compositor_tree(scene):
@@ -129,6 +128,18 @@ def compositor_tree(scene):
         return scene.compositing_node_group
     scene.use_nodes = True
     return scene.node_tree
+
+
+def remove_compositor(scene):
+    """Turns the scene's compositing off again (5.x: unassigns and deletes its node group)."""
+    import bpy
+    if hasattr(scene, "compositing_node_group"):
+        group = scene.compositing_node_group
+        if group is not None:
+            scene.compositing_node_group = None
+            bpy.data.node_groups.remove(group)
+    else:
+        scene.use_nodes = False
 
 
 def render_layers_node(scene):

@@ -68,14 +68,27 @@ def enabled(props):
     return [name for name in api.COST_PASSES if getattr(props, use_property(name))]
 
 
-def register_passes(engine, scene, view_layer):
-    """RenderEngine.update_render_passes: Combined, then every enabled cost pass, then the heat pass."""
-    props = view_layer.raylab_passes
-    engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
-    for name in enabled(props):
-        engine.register_pass(scene, view_layer, name, CHANNELS, CHANNEL_ID, PASS_TYPE)
+def delivered(props):
+    """(name, channels, channel ids, type) of every pass a View Layer delivers: Combined, then every enabled
+    cost pass, then the heat pass."""
+    passes = [("Combined", 4, "RGBA", 'COLOR')]
+    passes += [(name, CHANNELS, CHANNEL_ID, PASS_TYPE) for name in enabled(props)]
     if props.use_heat:
-        engine.register_pass(scene, view_layer, HEAT_PASS, 4, "RGBA", 'COLOR')
+        passes.append((HEAT_PASS, 4, "RGBA", 'COLOR'))
+    return passes
+
+
+def register_passes(engine, scene, view_layer):
+    """RenderEngine.update_render_passes: what the compositor and the View Layer list offer."""
+    for name, channels, ids, kind in delivered(view_layer.raylab_passes):
+        engine.register_pass(scene, view_layer, name, channels, ids, kind)
+
+
+def add_passes(engine, view_layer):
+    """The passes put into the render result before it is begun: 3.x and 4.x make a result's passes from
+    update_render_passes, 5.x only from add_pass (a pass already there is not added twice)."""
+    for name, channels, ids, _ in delivered(view_layer.raylab_passes)[1:]:
+        engine.add_pass(name, channels, ids, layer=view_layer.name)
 
 
 def scale_text(props):

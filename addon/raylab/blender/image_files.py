@@ -28,12 +28,13 @@ def write_image(path, image):
         raise RuntimeError(f"cannot write '{path}': its folder does not exist")
     picture = bpy.data.images.new("raylab write_image", width, height, alpha=True, float_buffer=True)
     try:
-        picture.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())  # Blender's rows go up
         picture.filepath_raw = path
         picture.file_format = file_format
         # PNG: Blender converts the linear floats to 8-bit sRGB itself. EXR: the floats as they are
-        # (without this, Blender writes them sRGB-encoded).
+        # (without this, Blender writes them sRGB-encoded). Set before the pixels: 5.x regenerates a
+        # generated image (black) when its colour settings change.
         picture.colorspace_settings.is_data = file_format == 'OPEN_EXR'
+        picture.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())  # Blender's rows go up
         picture.save()
     finally:
         bpy.data.images.remove(picture)

@@ -138,6 +138,7 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
     def _write_result(self, result, view_layer):
         height, width = result.image.shape[:2]
         # This view layer's part of the render result: Combined and the cost passes it registered.
+        cost_passes.add_passes(self, view_layer)
         blender_result = self.begin_result(0, 0, width, height, layer=view_layer.name)
         try:
             layer = blender_result.layers[0]

@@ -34,9 +34,17 @@ def update_spin_timer():
         bpy.app.timers.unregister(_spin_tick)
 
 
+# The frame each scene was last seen at: 5.x also calls frame_change_post when a window switches scene
+# (opening a level), which is no frame change and must not turn anything.
+_last_frame = {}
+
+
 @bpy.app.handlers.persistent
 def _on_frame_change(scene, *_):
-    if scene.raylab.spin:
+    frame = (scene.frame_current, scene.frame_subframe)
+    changed = _last_frame.get(scene.name_full, frame) != frame
+    _last_frame[scene.name_full] = frame
+    if changed and scene.raylab.spin:
         spin_step(scene)
 
 
