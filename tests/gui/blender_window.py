@@ -172,3 +172,20 @@ def step_timer(steps, finish, report, interval=1.5):
         finish()
         return None
     return run
+
+
+def watch_progress(progress, seconds, on_stall, interval=2.0):
+    """Calls on_stall() once `progress()` (any comparable value: steps left, a job's fraction) has not
+    changed for `seconds`: a run that advances is never stopped, however slow the machine."""
+    import time
+    seen = {"value": progress(), "since": time.monotonic()}
+
+    def check():
+        value = progress()
+        if value != seen["value"]:
+            seen.update(value=value, since=time.monotonic())
+        elif time.monotonic() - seen["since"] > seconds:
+            on_stall()
+            return None
+        return interval
+    bpy.app.timers.register(check, first_interval=interval)

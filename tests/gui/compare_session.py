@@ -23,7 +23,7 @@ import bpy
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
 sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d, watch_progress  # noqa: E402
 
 OUT_DIR = sys.argv[sys.argv.index("--") + 1]
 os.makedirs(OUT_DIR, exist_ok=True)
@@ -170,7 +170,7 @@ def run_steps():
 
 
 def watchdog():
-    report["error"] = f"the session did not finish within {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
+    report["error"] = f"the session made no progress for {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
     finish()
 
 
@@ -179,7 +179,11 @@ try:
     raylab.register()
     bpy.app.timers.register(tick, first_interval=0.1)
     bpy.app.timers.register(run_steps, first_interval=2.0)
-    bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
+    # Progress: a step done, or the comparison's fraction moving.
+    def progress():
+        from raylab.blender import compare
+        return len(STEPS), getattr(compare.running_job(), "fraction", None)
+    watch_progress(progress, WATCHDOG_SECONDS, watchdog)
 except Exception:
     report["error"] = traceback.format_exc()
     finish()

@@ -5,7 +5,10 @@ Runs in the pytest process (/usr/bin/python3), never inside Blender.
 """
 import json
 import os
+import signal
 import subprocess
+import tempfile
+import time
 
 import numpy as np
 from matplotlib.image import imread
@@ -34,14 +37,50 @@ def demo_blend(path):
     return path
 
 
-def run_gui_blender(script, args, blend=None, timeout=600, extra=()):
+HEARTBEAT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heartbeat.py")
+# How long a GUI Blender may go without a heartbeat (its main loop stopped: hung, or stuck in one long
+# call) before it is stopped. A slow machine slows the beats' work, not the beats.
+STALL_SECONDS = 180
+
+
+def run_watched(command, timeout=None, env=None, check=False, **_):
+    """subprocess.run for a Blender command line (under xvfb-run or not): heartbeat.py runs first in it,
+    and the process is stopped only when no heartbeat came for STALL_SECONDS, never after a fixed time
+    (`timeout`, what callers used to pass, is ignored). Output is captured as text."""
+    index = command.index("blender") + 1
+    command = command[:index] + ["--python", HEARTBEAT] + command[index:]
+    with tempfile.TemporaryDirectory(prefix="raylab_gui_") as folder:
+        beat = os.path.join(folder, "heartbeat")
+        out_path, err_path = os.path.join(folder, "out"), os.path.join(folder, "err")
+        with open(out_path, "w") as out, open(err_path, "w") as err:
+            process = subprocess.Popen(command, stdout=out, stderr=err, start_new_session=True,
+                                       env=dict(env or os.environ, RAYLAB_HEARTBEAT=beat))
+            started = time.monotonic()
+            while process.poll() is None:
+                time.sleep(1.0)
+                last = os.path.getmtime(beat) if os.path.exists(beat) else None
+                quiet = time.time() - last if last is not None else time.monotonic() - started
+                if quiet > STALL_SECONDS:
+                    os.killpg(process.pid, signal.SIGKILL)
+                    process.wait()
+                    raise AssertionError(f"Blender gave no heartbeat for {STALL_SECONDS} s (hung): "
+                                         f"{' '.join(command)}\n{open(out_path).read()[-2000:]}"
+                                         f"{open(err_path).read()[-2000:]}")
+        result = subprocess.CompletedProcess(command, process.returncode, open(out_path).read(),
+                                             open(err_path).read())
+    if check:
+        result.check_returncode()
+    return result
+
+
+def run_gui_blender(script, args, blend=None, timeout=None, extra=()):
     """Runs `script` inside Blender in a 1600x900 Xvfb window; the script quits Blender itself.
     `extra`: more Blender flags (e.g. --enable-event-simulate). Returns the finished process (its
     output helps when a report file is missing)."""
     command = ["xvfb-run", "-a", "-s", SCREEN, "blender", "--factory-startup", *extra]
     command += [blend] if blend else []
     command += ["--python", script, "--", *args]
-    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+    return run_watched(command)
 
 
 def read_report(path, process=None):

@@ -22,7 +22,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d, watch_progress  # noqa: E402
 
 OUT_DIR = sys.argv[sys.argv.index("--") + 1]
 os.makedirs(OUT_DIR, exist_ok=True)
@@ -131,14 +131,17 @@ def run():
 
 
 def watchdog():
-    report["error"] = f"the shots did not finish within {WATCHDOG_SECONDS} s; steps left: {[s.__name__ for s in STEPS]}"
+    report["error"] = (f"the shots made no progress for {WATCHDOG_SECONDS} s; steps left: "
+                       f"{[s.__name__ for s in STEPS]}")
     finish()
 
 
 try:
     raylab.register()
     bpy.app.timers.register(run, first_interval=2.0)
-    bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
+    # Progress: a step done, or the job's fraction moving.
+    watch_progress(lambda: (len(STEPS), getattr(compare.running_job(), "fraction", None)), WATCHDOG_SECONDS,
+                   watchdog)
 except Exception:
     report["error"] = traceback.format_exc()
     finish()

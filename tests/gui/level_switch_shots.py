@@ -21,7 +21,7 @@ import bpy
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
 sys.path.insert(0, HERE)
-from blender_window import screenshot, step_timer, view3d  # noqa: E402
+from blender_window import screenshot, step_timer, view3d, watch_progress  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
@@ -104,7 +104,7 @@ def steps_for(level_id):
 
 
 def watchdog():
-    report["error"] = f"the shots did not finish within {WATCHDOG_SECONDS} s"
+    report["error"] = f"the shots made no progress for {WATCHDOG_SECONDS} s; steps left: {len(STEPS)}"
     finish()
 
 
@@ -113,7 +113,7 @@ try:
     raylab.register()
     STEPS = [step for level_id in LEVEL_IDS for step in steps_for(level_id)] + undo_steps()
     bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
-    bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
+    watch_progress(lambda: len(STEPS), WATCHDOG_SECONDS, watchdog)
 except Exception:
     report["error"] = traceback.format_exc()
     finish()

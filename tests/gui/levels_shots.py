@@ -25,7 +25,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot as window_screenshot, show_sidebar, step_timer, view3d  # noqa: E402,E501
+from blender_window import click_raylab_tab, screenshot as window_screenshot, show_sidebar, step_timer, view3d, \
+    watch_progress  # noqa: E402,E501
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
 os.makedirs(OUT_DIR, exist_ok=True)
@@ -157,14 +158,14 @@ STEPS.insert(1, click_raylab_tab)  # once: the sidebar keeps its tab from level 
 
 
 def watchdog():
-    report["error"] = f"the shots did not finish within {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
+    report["error"] = f"the shots made no progress for {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
     finish()
 
 
 try:
     raylab.register()
     bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
-    bpy.app.timers.register(watchdog, first_interval=WATCHDOG_SECONDS)
+    watch_progress(lambda: len(STEPS), WATCHDOG_SECONDS, watchdog)
 except Exception:
     report["error"] = traceback.format_exc()
     finish()

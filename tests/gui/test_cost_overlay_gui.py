@@ -8,6 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 from matplotlib.image import imread
+import gui_util  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir, os.pardir))
 OUT = os.path.join(ROOT, "out", "gui")
@@ -23,7 +24,7 @@ def shots(tmp_path_factory):
         path = os.path.join(OUT, "cost_overlay" + suffix)
         if os.path.exists(path):
             os.remove(path)
-    run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
+    run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
                           "--python-exit-code", "1", blend,
                           "--python", os.path.join(ROOT, "tests", "gui", "cost_overlay_shot.py"), "--", OUT],
                          capture_output=True, text=True, timeout=300)

@@ -17,6 +17,7 @@ HERE = os.path.join(ROOT, "tests", "gui")
 OUT = os.path.join(ROOT, "out", "gui")
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 import package  # noqa: E402
+import gui_util  # noqa: E402
 
 
 def blender_version():
@@ -80,7 +81,7 @@ def session(packaged, tmp_path_factory):
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
     os.makedirs(OUT, exist_ok=True)
     report_path = shots / "report.json"
-    run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", str(blend), "--python-exit-code", "1",
+    run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", str(blend), "--python-exit-code", "1",
                           "--python", os.path.join(HERE, "extension_session.py"), "--", module, str(report_path),
                           str(shots)], env=env, capture_output=True, text=True, timeout=600)
     assert report_path.exists(), run.stdout[-3000:] + run.stderr[-3000:]

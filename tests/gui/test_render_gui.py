@@ -25,7 +25,7 @@ def f12_render():
         if os.path.exists(path):
             os.remove(path)
     gui_util.demo_blend(blend)
-    run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
+    run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
                           blend, "--python-exit-code", "1", "--python", os.path.join(HERE, "render_f12.py"), "--", screenshot, report_path],
                          capture_output=True, text=True, timeout=300)
     assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:]

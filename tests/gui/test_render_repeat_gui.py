@@ -35,7 +35,7 @@ def test_fifty_f12_renders_leave_operators_usable():
         if os.path.exists(path):
             os.remove(path)
     gui_util.demo_blend(blend)
-    run = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
+    run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
                           "--python", os.path.join(HERE, "render_repeat.py"), "--", report_path, str(RENDERS)],
                          capture_output=True, text=True, timeout=1200, env={**os.environ, "RAYLAB_SLOW_DRAW_MS": "30"})
     assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:]

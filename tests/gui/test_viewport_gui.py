@@ -17,6 +17,7 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir, os.par
 OUT = os.path.join(ROOT, "out", "gui")
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 import raylab  # noqa: E402
+import gui_util  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +36,7 @@ def shoot(structure, blend):
         if os.path.exists(path):
             os.remove(path)
     # --python-exit-code: a script that fails to start quits Blender instead of leaving the window open.
-    subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
+    gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
                     "--python-exit-code", "1", blend,
                     "--python", os.path.join(ROOT, "tests", "gui", "viewport_shot.py"), "--", OUT, structure],
                    capture_output=True, timeout=300)
