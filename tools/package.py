@@ -357,7 +357,9 @@ def build_extension(out_dir, version, wheels):
     if run.returncode != 0 or not os.path.exists(target):
         raise SystemExit(f"package: blender --command extension build failed:\n{run.stdout}{run.stderr}")
     run = subprocess.run(base + ["validate", mapped(target)], capture_output=True, text=True)
-    report = (run.stdout + run.stderr).strip()
+    # Blender's own lines only, not the sound and file-system warnings of a machine without them.
+    noise = re.compile(r"pw\.conf|ALSOFT|mounted file-systems|^Blender \d")
+    report = "\n".join(line for line in (run.stdout + run.stderr).splitlines() if line.strip() and not noise.search(line))
     if run.returncode != 0:
         raise SystemExit(f"package: blender --command extension validate failed:\n{report}")
     return target, report

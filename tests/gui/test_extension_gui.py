@@ -42,16 +42,22 @@ def test_extension_zip_has_a_valid_manifest_and_a_self_contained_module(packaged
         manifest = tomllib.loads(zf.read("blender_manifest.toml").decode())
     assert manifest["schema_version"] == "1.0.0" and manifest["id"] == "raylab" and manifest["type"] == "add-on"
     assert manifest["blender_version_min"] == "4.2.0" and manifest["platforms"] == ["linux-x64"]
-    assert manifest["license"] and manifest["permissions"]["files"]
+    assert manifest["license"] and manifest["permissions"]["files"] and manifest["copyright"]
     if blender_version() >= (4, 2):  # Blender's own check of the manifest and the zip
         run = subprocess.run(["blender", "-b", "--factory-startup", "--command", "extension", "validate",
                               str(packaged["extension"])], capture_output=True, text=True, timeout=120)
         assert run.returncode == 0 and "FATAL" not in run.stdout + run.stderr, run.stdout + run.stderr
+    # The native core only as this Python's wheel, listed in the manifest; no loose module, no libs/.
     tag = package.python_tag()
-    assert f"_raylab.cpython-{tag[2:]}-x86_64-linux-gnu.so" in names
-    assert any(name.startswith(f"libs/{tag}/libtbb-") for name in names), names
+    wheel = f"raylab_core-{package.addon_version()}-{tag}-{tag}-{package.WHEEL_PLATFORM}.whl"
+    assert f"./wheels/{wheel}" in manifest["wheels"] and f"wheels/{wheel}" in names, (manifest["wheels"], names)
+    assert not [name for name in names if name.endswith(".so") or name.startswith("libs/")], names
+    with zipfile.ZipFile(zipfile.Path(packaged["extension"], f"wheels/{wheel}").open("rb")) as wf:
+        inside = wf.namelist()
+    assert f"raylab_core/_raylab.cpython-{tag[2:]}-x86_64-linux-gnu.so" in inside
+    assert any(name.startswith("raylab_core/libs/libtbb-") for name in inside), inside
     # OpenImageIO stays out of what Blender loads; the development modules are not shipped.
-    assert not any("_raylab_images" in name or "OpenImageIO" in name for name in names)
+    assert not any("_raylab_images" in name or "OpenImageIO" in name for name in names + inside)
     assert "__init__.py" in names and "levels/octree_2/level.toml" in names
     with zipfile.ZipFile(packaged["legacy"]) as zf:
         assert "raylab/__init__.py" in zf.namelist() and "raylab/blender_manifest.toml" not in zf.namelist()
