@@ -202,3 +202,31 @@ def test_the_heat_pass_carries_its_legend_in_its_bottom_rows(demo_scene):
     expected = raylab.heat_map(api_counts(demo_scene)["nodes_visited"], 40.0)
     assert np.array_equal(heat[-len(legend):], legend)
     assert np.array_equal(heat[:-len(legend)], expected[:-len(legend)])
+
+
+@pytest.mark.parametrize("space", sorted(compat.REC709_TO))
+def test_the_heat_pass_keeps_its_colours_in_the_files_working_space(demo_scene, space):
+    """5.0+: a file may work in Rec.2020 or ACEScg; the heat map's colours (Rec.709) are converted, so the
+    pass shows the same colours whatever the working space. Releases before 5.0 work in Rec.709 only."""
+    colorspace = getattr(bpy.data, "colorspace", None)
+    if colorspace is None:
+        assert compat.working_space() == "Linear Rec.709"
+        if space != "Linear Rec.709":
+            return  # no other space to choose on this release: nothing to convert
+    else:  # the file's setting, as File > Color Management would change it (its colours left as they are)
+        if compat.working_space() != space:  # the operator cancels a change to the space already set
+            assert bpy.ops.wm.set_working_color_space(working_space=space, convert_colors=False) == {'FINISHED'}
+        assert compat.working_space() == space
+    try:
+        triangles = next(name for name, info in raylab.COST_PASS_INFO.items() if info["counter"] == "triangle_tests")
+        enable_heat(demo_scene, triangles, 500.0, legend=False)
+        heat = heat_channels(demo_scene, render_exr(demo_scene))
+        expected = raylab.heat_map(api_counts(demo_scene)["triangle_tests"], 500.0)
+        matrix = compat.REC709_TO[space]
+        if matrix is not None:
+            expected[..., :3] = expected[..., :3] @ matrix.T.astype(np.float32)
+        assert np.allclose(heat, expected, atol=1e-6)
+        assert (matrix is None) == np.array_equal(heat, raylab.heat_map(api_counts(demo_scene)["triangle_tests"], 500.0))
+    finally:
+        if colorspace is not None and compat.working_space() != "Linear Rec.709":
+            bpy.ops.wm.set_working_color_space(working_space="Linear Rec.709", convert_colors=False)

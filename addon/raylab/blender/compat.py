@@ -164,3 +164,38 @@ def light_power(light):
         area = width * height * (0.25 * 3.141592653589793 if light.shape in ('DISK', 'ELLIPSE') else 1.0)
         power *= area
     return power
+
+
+# --- 5.0: each file's working colour space ---------------------------------------------------------------
+# Linear Rec.709 primaries to each working space's (D65; ACEScg's AP1 through a Bradford adaptation to
+# its D60 white): raylab's fixed colours (the heat colour map, its legend) are defined in Rec.709.
+REC709_TO = {
+    "Linear Rec.709": None,
+    "Linear Rec.2020": np.array([[0.627404, 0.329283, 0.043313],
+                                 [0.069097, 0.919540, 0.011362],
+                                 [0.016391, 0.088013, 0.895595]]),
+    "ACEScg": np.array([[0.613097, 0.339523, 0.047379],
+                        [0.070194, 0.916354, 0.013452],
+                        [0.020616, 0.109570, 0.869815]]),
+}
+
+
+def working_space():
+    """The file's working colour space ("Linear Rec.709" before 5.0, which had no other)."""
+    import bpy
+    colorspace = getattr(bpy.data, "colorspace", None)
+    return getattr(colorspace, "working_space", "Linear Rec.709")
+
+
+def rec709_to_working(rgba):
+    """(..., 3|4) linear Rec.709 colours in the file's working space (alpha kept); a space raylab has no
+    matrix for is a ValueError that names it."""
+    space = working_space()
+    if space not in REC709_TO:
+        raise ValueError(f"raylab has no conversion to the working colour space {space!r}")
+    matrix = REC709_TO[space]
+    if matrix is None:
+        return rgba
+    out = np.array(rgba, np.float32, copy=True)
+    out[..., :3] = out[..., :3] @ matrix.T.astype(np.float32)
+    return out

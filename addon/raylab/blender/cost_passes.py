@@ -118,8 +118,8 @@ def write_passes(render_layer, result, props):
     for name in enabled(props):
         cost = result.cost[api.COST_PASS_INFO[name]["counter"]]
         _fill(render_layer, name, cost)
-    if props.use_heat:
-        _fill(render_layer, HEAT_PASS, heat_image(result.cost, props))
+    if props.use_heat:  # the colour map is Rec.709: shown in the file's working space (5.0+)
+        _fill(render_layer, HEAT_PASS, compat.rec709_to_working(heat_image(result.cost, props)))
 
 
 def _fill(render_layer, name, pixels):
