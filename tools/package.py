@@ -119,9 +119,11 @@ def patchelf(*args):
     subprocess.run(["patchelf", *args], check=True)
 
 
-def bundle(module, folder, libs):
+def bundle(module, folder, libs, release):
     """Copies `module` into `folder` with the libraries it needs beyond the base system in folder/libs
-    (the relative path `libs`), renamed by content hash and found through $ORIGIN; {soname: bundled}."""
+    (the relative path `libs`), renamed by content hash and found through $ORIGIN. A release build
+    (the one build host's) refuses a library above the baseline. Returns ({soname: bundled}, the newest
+    GLIBC version any of them needs)."""
     if shutil.which("patchelf") is None:
         raise SystemExit("package: patchelf is missing (Debian package patchelf): run ./raylab setup")
     os.makedirs(os.path.join(folder, libs), exist_ok=True)
@@ -140,15 +142,17 @@ def bundle(module, folder, libs):
         os.chmod(path, 0o755)
         patchelf("--set-soname", os.path.basename(path), path)
         patchelf("--set-rpath", "$ORIGIN", path)
+    glibc = (2, 17)
     for path in [staged] + bundled:
         for soname, name in renamed.items():
             patchelf("--replace-needed", soname, name, path)
-        over = above_baseline(path)
+        glibc = max(glibc, symbol_versions(path).get("GLIBC", glibc))
+        over = above_baseline(path) if release else ""
         if over:
             raise SystemExit(f"package: {os.path.basename(path)} needs {over}, above the baseline "
                              f"GLIBC_{'.'.join(map(str, GLIBC_BASELINE))}: build on an older system")
     patchelf("--set-rpath", f"$ORIGIN/{libs}", staged)
-    return renamed
+    return renamed, glibc
 
 
 def os_release():
@@ -220,33 +224,36 @@ def library_files():
     return sorted(name for name in os.listdir(ADDON) if name.endswith(".py"))
 
 
-def make_wheel(version, module, out_dir):
-    """out/wheels/raylab_core-<version>-cpXY-cpXY-<WHEEL_PLATFORM>.whl for one module; returns its path."""
+def make_wheel(version, module, out_dir, release):
+    """out/wheels/raylab_core-<version>-cpXY-cpXY-manylinux_A_B_x86_64.whl for one module, tagged with the
+    glibc it needs (WHEEL_PLATFORM for a release; a root's own build, for its tests, needs its newer
+    glibc and says so); returns its path and the bundled libraries."""
     tag = tag_of(version)
     stage = os.path.join(out_dir, "wheel-stage", tag)
     shutil.rmtree(stage, ignore_errors=True)
     core = os.path.join(stage, "raylab_core")
     os.makedirs(core)
-    renamed = bundle(module, core, "libs")
+    renamed, glibc = bundle(module, core, "libs", release)
+    platform = f"manylinux_{glibc[0]}_{glibc[1]}_x86_64"
     with open(os.path.join(core, "__init__.py"), "w") as file:
         file.write('"""raylab\'s native core (`raylab_core._raylab`); the API is `import raylab`."""\n')
     os.makedirs(os.path.join(stage, "raylab"))
     for name in library_files():
         shutil.copy2(os.path.join(ADDON, name), os.path.join(stage, "raylab", name))
-    release = addon_version()
-    info = os.path.join(stage, f"raylab_core-{release}.dist-info")
+    number = addon_version()
+    info = os.path.join(stage, f"raylab_core-{number}.dist-info")
     os.makedirs(info)
     with open(os.path.join(info, "METADATA"), "w") as file:
-        file.write(f"Metadata-Version: 2.1\nName: raylab_core\nVersion: {release}\n"
+        file.write(f"Metadata-Version: 2.1\nName: raylab_core\nVersion: {number}\n"
                    "Summary: See and measure ray-tracing acceleration structures (raylab's core and Python API)\n"
                    f"Home-page: {WEBSITE}\nLicense: GPL-3.0-or-later\nRequires-Python: =={version}.*\n"
                    "Requires-Dist: numpy\n")
     with open(os.path.join(info, "WHEEL"), "w") as file:
         file.write(f"Wheel-Version: 1.0\nGenerator: raylab package.py\nRoot-Is-Purelib: false\n"
-                   f"Tag: {tag}-{tag}-{WHEEL_PLATFORM}\n")
+                   f"Tag: {tag}-{tag}-{platform}\n")
     wheels = os.path.join(out_dir, "wheels")
     os.makedirs(wheels, exist_ok=True)
-    target = os.path.join(wheels, f"raylab_core-{release}-{tag}-{tag}-{WHEEL_PLATFORM}.whl")
+    target = os.path.join(wheels, f"raylab_core-{number}-{tag}-{tag}-{platform}.whl")
     if os.path.exists(target):
         os.remove(target)
     subprocess.run([sys.executable, "-m", "wheel", "pack", stage, "-d", wheels], check=True,
@@ -370,7 +377,7 @@ def write_legacy(out_dir, version, modules_by_version):
     stage = os.path.join(out_dir, "legacy-stage")
     shutil.rmtree(stage, ignore_errors=True)
     for version_, module in modules_by_version.items():
-        bundle(module, stage, f"libs/{tag_of(version_)}")
+        bundle(module, stage, f"libs/{tag_of(version_)}", release=False)
     target = os.path.join(out_dir, f"raylab-{version}-addon-{PLATFORM}.zip")
     with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as zf:
         add_tree(zf, ADDON, "raylab", skip=development_file)
@@ -394,7 +401,7 @@ def main():
         shutil.rmtree(os.path.join(out_dir, "wheels"))
     wheels = []
     for python, module in sorted(found.items()):
-        wheel, renamed = make_wheel(python, module, out_dir)
+        wheel, renamed = make_wheel(python, module, out_dir, release=args.all_pythons)
         wheels.append(wheel)
         needs = symbol_versions(module)
         print(f"package: {os.path.basename(wheel)} (Python {python}; needs "

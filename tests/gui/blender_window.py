@@ -67,9 +67,15 @@ def show_sidebar():
 
 
 def click_raylab_tab():
-    """Blender 3.4 has no API for the sidebar's active tab: click it (needs --enable-event-simulate).
-    The tabs run down the sidebar's right edge: Tool, View, then raylab."""
+    """The sidebar on its raylab tab: Region.active_panel_category where Blender has it (4.x, 5.x, whose
+    tabs differ: 5.2 adds Animation before raylab); 3.4 has no API for it: the tab is clicked (needs
+    --enable-event-simulate), the tabs running down the sidebar's right edge: Tool, View, then raylab."""
     window, area, _, sidebar = view3d()
+    if "active_panel_category" in sidebar.bl_rna.properties:
+        sidebar.active_panel_category = "raylab"
+        window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=sidebar.y + 40)
+        area.tag_redraw()
+        return
     x = sidebar.x + sidebar.width - 13
     y = sidebar.y + sidebar.height - 122
     window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
