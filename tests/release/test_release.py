@@ -35,7 +35,7 @@ def packaged():
 def readme_baseline():
     """The baseline as the README states it: "glibc baseline: GLIBC_2.34 and GLIBCXX_3.4.29"."""
     text = open(os.path.join(ROOT, "README.md")).read()
-    match = re.search(r"glibc baseline[^.]*?GLIBC_(\d+)\.(\d+)\D+GLIBCXX_(\d+)\.(\d+)\.(\d+)", text)
+    match = re.search(r"glibc\s+baseline[^.]*?GLIBC_(\d+)\.(\d+)\D+GLIBCXX_(\d+)\.(\d+)\.(\d+)", text)
     assert match, "the README does not state the glibc baseline (GLIBC_x.y and GLIBCXX_x.y.z)"
     numbers = tuple(map(int, match.groups()))
     return numbers[:2], numbers[2:]
