@@ -11,6 +11,7 @@ import sys
 import traceback
 
 import bpy
+import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -24,6 +25,24 @@ TIMEOUT_TICKS = 600   # 0.25 s each
 report = {"errors": []}
 ticks = {"waited": 0, "after_done": 0}
 
+
+
+# 5.x writes a Render Result's Combined alone into a multilayer EXR (Cycles' passes too): the passes are
+# then also kept as the engine filled them, through compat.set_pass_pixels (on the job thread), in
+# EXR.npz beside the EXR: {pass name: (H, W, C) float32, row 0 the top}.
+filled = {}
+_fill = compat.set_pass_pixels
+
+
+def _recording_fill(render_pass, pixels):
+    scene = bpy.context.scene
+    height = scene.render.resolution_y * scene.render.resolution_percentage // 100
+    width = scene.render.resolution_x * scene.render.resolution_percentage // 100
+    filled[render_pass.name] = np.asarray(pixels, np.float32).reshape(height, width, -1)[::-1].copy()
+    _fill(render_pass, pixels)
+
+
+compat.set_pass_pixels = _recording_fill
 
 
 def finish():
@@ -66,10 +85,12 @@ def wait_for_render():
             return 0.25
         report["last_render"] = scene[render_stats.LAST_RENDER].to_dict()
         report["view_layer"] = scene.view_layers[0].name
+        report["blender"] = list(bpy.app.version[:2])
         blender_window.screenshot(SCREENSHOT)
         compat.set_file_format(scene.render.image_settings, 'OPEN_EXR_MULTILAYER')
         scene.render.image_settings.color_depth = '32'
         bpy.data.images["Render Result"].save_render(EXR, scene=scene)
+        np.savez(EXR + ".npz", **filled)
         finish()
     except Exception:
         report["errors"].append(traceback.format_exc())
