@@ -243,3 +243,23 @@ def test_core_line_arrays_equal_the_former_numpy_ones(monkey_scene, structure):
         edges = (draw.BOX_EDGES[None, :, :] + (8 * np.arange(len(depth), dtype=np.uint32))[:, None, None])
         np.testing.assert_array_equal(geometry.indices, edges.reshape(-1, 2))
     settings.probe_enabled = False
+
+
+def test_a_new_object_under_an_old_name_gets_its_own_structure(monkey_scene):
+    """Opening a level after another replaces its "Level mesh" object by a new one of the same name; on
+    5.2 no geometry change is reported for it. The overlay must draw the new mesh's boxes, not the old's."""
+    scene, monkey = monkey_scene
+    scene.raylab.structure = "octree"
+    name = monkey.name
+    before = structure_cache.structure_for(monkey, scene.raylab).structure.boxes()
+    bpy.data.objects.remove(monkey)
+    cube = bpy.data.meshes.new("Other mesh")
+    cube.from_pydata([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], [],
+                     [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
+    replacement = bpy.data.objects.new(name, cube)
+    scene.collection.objects.link(replacement)
+    replacement.select_set(True)
+    assert replacement.name == name
+    after = structure_cache.structure_for(replacement, scene.raylab).structure
+    assert after.mesh()[1].shape[0] == 12  # the cube's triangles, not the monkey's
+    assert len(after.boxes()["lo"]) != len(before["lo"])

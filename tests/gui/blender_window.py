@@ -73,7 +73,8 @@ def click_raylab_tab():
     window, area, _, sidebar = view3d()
     if "active_panel_category" in sidebar.bl_rna.properties:
         sidebar.active_panel_category = "raylab"
-        window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=sidebar.y + 40)
+        if bpy.app.use_event_simulate:  # the pointer parked away from the tabs: no tooltip in the pictures
+            window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=sidebar.y + 40)
         area.tag_redraw()
         return
     x = sidebar.x + sidebar.width - 13

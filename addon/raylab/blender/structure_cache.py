@@ -26,7 +26,7 @@ WORLD_ALIGNED = "aabb"  # the one structure kept in world space (see above)
 
 stats = {"structure_builds": 0, "structure_refits": 0, "mesh_reads": 0}
 
-_meshes = {}   # object name -> _Mesh
+_meshes = {}   # object name -> (the object's identity, _Mesh)
 _dirty = set()  # object names whose evaluated geometry changed since it was read
 _models = {}   # Blender scene name -> SceneModel
 
@@ -254,12 +254,22 @@ def read_mesh(obj, depsgraph):
     return vertices, triangles
 
 
+def identity(obj):
+    """Which object and mesh a name stands for now: a new object under an old name (a level opened after
+    another, whose mesh object has the same name; 5.2 reports no geometry change for it) is another mesh.
+    session_uid where Blender has it (3.6+), the mesh's name always."""
+    data = obj.data
+    return (getattr(obj, "session_uid", None), getattr(data, "session_uid", None),
+            data.name_full if data is not None else None)
+
+
 def _mesh_of(obj, depsgraph):
     name = obj.name_full
-    mesh = _meshes.get(name)
-    if mesh is None or name in _dirty:
+    known, mesh = _meshes.get(name, (None, None))
+    now = identity(obj)
+    if mesh is None or name in _dirty or known != now:
         mesh = _Mesh(*read_mesh(obj, depsgraph or bpy.context.evaluated_depsgraph_get()))
-        _meshes[name] = mesh
+        _meshes[name] = (now, mesh)
         _dirty.discard(name)
     return mesh
 
