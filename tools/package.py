@@ -106,9 +106,8 @@ def symbol_versions(path):
     return newest
 
 
-def above_baseline(path):
-    """What `path` needs beyond GLIBC_BASELINE / GLIBCXX_BASELINE, as text ("" when nothing)."""
-    needs = symbol_versions(path)
+def above_baseline(needs):
+    """What symbol_versions' `needs` ask beyond GLIBC_BASELINE / GLIBCXX_BASELINE, as text ("" when nothing)."""
     over = [f"{library}_{'.'.join(map(str, needs[library]))}"
             for library, baseline in (("GLIBC", GLIBC_BASELINE), ("GLIBCXX", GLIBCXX_BASELINE))
             if needs.get(library, ()) > baseline]
@@ -146,8 +145,9 @@ def bundle(module, folder, libs, release):
     for path in [staged] + bundled:
         for soname, name in renamed.items():
             patchelf("--replace-needed", soname, name, path)
-        glibc = max(glibc, symbol_versions(path).get("GLIBC", glibc))
-        over = above_baseline(path) if release else ""
+        needs = symbol_versions(path)
+        glibc = max(glibc, needs.get("GLIBC", glibc))
+        over = above_baseline(needs) if release else ""
         if over:
             raise SystemExit(f"package: {os.path.basename(path)} needs {over}, above the baseline "
                              f"GLIBC_{'.'.join(map(str, GLIBC_BASELINE))}: build on an older system")
@@ -296,24 +296,26 @@ files = "Reads mesh files and writes rendered images and charts"
 '''
 
 
-def add_tree(zf, source, arcroot, skip=lambda name: False):
-    for folder, dirs, files in os.walk(source):
-        dirs[:] = sorted(d for d in dirs if d not in SKIP_DIRS)
-        for name in sorted(files):
-            path = os.path.join(folder, name)
-            if not skip(os.path.relpath(path, source)):
-                zf.write(path, os.path.join(arcroot, os.path.relpath(path, source)))
-
-
-def copy_tree(source, target, skip=lambda name: False):
+def tree_files(source, skip=lambda name: False):
+    """(path, path relative to source) of every file below `source`, in order, but SKIP_DIRS and `skip`."""
     for folder, dirs, files in os.walk(source):
         dirs[:] = sorted(d for d in dirs if d not in SKIP_DIRS)
         for name in sorted(files):
             path = os.path.join(folder, name)
             relative = os.path.relpath(path, source)
             if not skip(relative):
-                os.makedirs(os.path.dirname(os.path.join(target, relative)), exist_ok=True)
-                shutil.copy2(path, os.path.join(target, relative))
+                yield path, relative
+
+
+def add_tree(zf, source, arcroot, skip=lambda name: False):
+    for path, relative in tree_files(source, skip):
+        zf.write(path, os.path.join(arcroot, relative))
+
+
+def copy_tree(source, target, skip=lambda name: False):
+    for path, relative in tree_files(source, skip):
+        os.makedirs(os.path.dirname(os.path.join(target, relative)), exist_ok=True)
+        shutil.copy2(path, os.path.join(target, relative))
 
 
 def development_file(relative):
@@ -321,13 +323,19 @@ def development_file(relative):
     return re.fullmatch(r"_raylab(_images)?\..*\.so", relative) is not None or relative.startswith("libs/")
 
 
+def blender_version():
+    """(major, minor) of the `blender` on PATH, or None without one."""
+    if shutil.which("blender") is None:
+        return None
+    line = subprocess.run(["blender", "--version"], capture_output=True, text=True, check=True).stdout.split("\n")[0]
+    return tuple(int(part) for part in line.split()[1].split(".")[:2])
+
+
 def extension_blender(paths):
     """How to run a Blender 4.2+ with `paths` visible: (command prefix, path mapper), or None. Blender here
     when it is 4.2+, else the cached sid root's (the checkout is /raylab there)."""
-    if shutil.which("blender"):
-        line = subprocess.run(["blender", "--version"], capture_output=True, text=True).stdout.split("\n")[0]
-        if tuple(int(p) for p in line.split()[1].split(".")[:2]) >= (4, 2):
-            return ["blender"], lambda path: path
+    if (blender_version() or (0, 0)) >= (4, 2):
+        return ["blender"], lambda path: path
     sid = os.path.join(ROOTS, PYTHON_ROOTS["3.14"])
     inside = all(os.path.abspath(p).startswith(ROOT + os.sep) for p in paths)
     if inside and os.path.exists(os.path.join(sid, "usr/bin/blender")) and os.geteuid() == 0:

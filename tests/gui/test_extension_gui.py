@@ -20,11 +20,6 @@ import package  # noqa: E402
 import gui_util  # noqa: E402
 
 
-def blender_version():
-    line = subprocess.run(["blender", "--version"], capture_output=True, text=True, check=True).stdout.split("\n")[0]
-    return tuple(int(part) for part in line.split()[1].split(".")[:2])
-
-
 @pytest.fixture(scope="module")
 def packaged(tmp_path_factory):
     out = tmp_path_factory.mktemp("package")
@@ -43,7 +38,7 @@ def test_extension_zip_has_a_valid_manifest_and_a_self_contained_module(packaged
     assert manifest["schema_version"] == "1.0.0" and manifest["id"] == "raylab" and manifest["type"] == "add-on"
     assert manifest["blender_version_min"] == "4.2.0" and manifest["platforms"] == ["linux-x64"]
     assert manifest["license"] and manifest["permissions"]["files"] and manifest["copyright"]
-    if blender_version() >= (4, 2):  # Blender's own check of the manifest and the zip
+    if package.blender_version() >= (4, 2):  # Blender's own check of the manifest and the zip
         run = subprocess.run(["blender", "-b", "--factory-startup", "--command", "extension", "validate",
                               str(packaged["extension"])], capture_output=True, text=True, timeout=120)
         assert run.returncode == 0 and "FATAL" not in run.stdout + run.stderr, run.stdout + run.stderr
@@ -76,7 +71,7 @@ def session(packaged, tmp_path_factory):
                     "import bpy; bpy.context.preferences.view.show_splash = False; bpy.ops.wm.save_userpref(); "
                     f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"],
                    env=env, check=True, capture_output=True, timeout=120)
-    if blender_version() >= (4, 2):
+    if package.blender_version() >= (4, 2):
         module = "bl_ext.user_default.raylab"
         install = ["blender", "-b", "--command", "extension", "install-file", "-r", "user_default",
                    str(packaged["extension"])]

@@ -3,6 +3,8 @@
 Each helper asks Blender whether a feature is there rather than comparing version numbers, so a release
 in between (or a future one that keeps an API) takes the right branch by itself.
 """
+import math
+
 import numpy as np
 
 # Principled BSDF inputs renamed in 4.0: the new name first, then the 3.x one.
@@ -70,30 +72,21 @@ def update_render_passes(view_layer):
 # `use_nodes` of materials and worlds does nothing since 5.0 and warns on every read and write (removal
 # in 6.0). Whether it still means something is a release fact, not a property to probe: reading it is
 # what warns.
-NODES_ALWAYS = None
-
-
-def _nodes_always():
+def nodes_always():
     import bpy
     return bpy.app.version >= (5, 0)
 
 
 def node_tree(idblock):
     """The node tree a material or world shades with, or None where it shades without nodes."""
-    global NODES_ALWAYS
-    if NODES_ALWAYS is None:
-        NODES_ALWAYS = _nodes_always()
-    if NODES_ALWAYS or idblock.use_nodes:
+    if nodes_always() or idblock.use_nodes:
         return idblock.node_tree
     return None
 
 
 def use_node_tree(idblock):
     """Makes a material or world shade with its node tree (a no-op since 5.0) and returns the tree."""
-    global NODES_ALWAYS
-    if NODES_ALWAYS is None:
-        NODES_ALWAYS = _nodes_always()
-    if not NODES_ALWAYS:
+    if not nodes_always():
         idblock.use_nodes = True
     return idblock.node_tree
 
@@ -161,7 +154,7 @@ def light_power(light):
             width = height = light.size
         else:
             width, height = light.size, light.size_y
-        area = width * height * (0.25 * 3.141592653589793 if light.shape in ('DISK', 'ELLIPSE') else 1.0)
+        area = width * height * (math.pi / 4 if light.shape in ('DISK', 'ELLIPSE') else 1.0)
         power *= area
     return power
 
