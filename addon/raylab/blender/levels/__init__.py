@@ -15,7 +15,7 @@ import sys
 from .reading import (COMPARISONS, ID_PROPERTY_TESTS, LEVEL_ROOTS, OBJECT_TESTS, PACKAGE_DIR,  # noqa: F401
                       PROBE_TESTS, SETTING_GROUPS, Level, LevelError, Task, available_levels, find_level, levels_root,
                       load_level, plain, read_text, validate_condition)
-from .state import MESH_OBJECT_NAME, STATE_KEY, level_mesh_object, state  # noqa: F401
+from .state import MESH_OBJECT_NAME, OWNER_KEY, STATE_KEY, level_mesh_object, owned, state  # noqa: F401
 
 if "bpy" in sys.modules:
     from . import operators, tasks
@@ -23,7 +23,7 @@ if "bpy" in sys.modules:
                          object_mesh_arrays, shipped_mesh_arrays, shipped_meshes)
     from .operators import (RAYLAB_OT_level_next, RAYLAB_OT_level_open, RAYLAB_OT_level_previous,  # noqa: F401
                             RAYLAB_OT_level_swap_mesh)
-    from .scene import MESH_SIZE, _remove_scene, open_level, step_level, swap_mesh  # noqa: F401
+    from .scene import KEPT_SUFFIX, MESH_SIZE, _remove_scene, open_level, step_level, swap_mesh  # noqa: F401
     from .tasks import CHECK_INTERVAL, _check_timer, check_tasks, evaluate_condition, task_list  # noqa: F401
 
 

@@ -4,6 +4,7 @@ level uses the probe, and the scene.raylab / scene.raylab_render settings; switc
 the level's mesh (the object, its place and every setting stay)."""
 import math
 import re
+import uuid
 
 import bpy
 from mathutils import Matrix, Vector
@@ -12,7 +13,7 @@ from .. import compat
 from ..mesh_data import mesh_from_arrays, principled_material
 from .meshes import mesh_credit, normalised, object_mesh_arrays, shipped_mesh_arrays
 from .reading import LevelError, available_levels, find_level
-from .state import MESH_OBJECT_NAME, STATE_KEY, level_mesh_object, state
+from .state import MESH_OBJECT_NAME, OWNER_KEY, STATE_KEY, level_mesh_object, owned, state
 from .tasks import _take_snapshots, check_tasks
 
 MESH_SIZE = 2.0          # the level mesh's largest side, in metres (times the level's scene_scale)
@@ -65,9 +66,18 @@ def _look_at(location, target):
     return Matrix.Translation(location) @ direction.to_track_quat('-Z', 'Y').to_matrix().to_4x4()
 
 
+def _own(token, *ids):
+    """Marks IDs as the level's: leaving the level removes these and nothing else."""
+    for id_data in ids:
+        id_data[OWNER_KEY] = token
+    return ids[0] if ids else None
+
+
 def _set_mesh(obj, vertices, triangles, size, source, credit):
     old = obj.data
     mesh = mesh_from_arrays(f"level {source}", normalised(vertices, size), triangles, smooth=True)
+    if OWNER_KEY in obj:
+        _own(obj[OWNER_KEY], mesh)
     for material in old.materials:
         mesh.materials.append(material)
     obj.data = mesh
@@ -78,7 +88,8 @@ def _set_mesh(obj, vertices, triangles, size, source, credit):
 
 
 def _new_scene(level):
-    scene = bpy.data.scenes.new(f"raylab: {level.title}")
+    token = uuid.uuid4().hex
+    scene = _own(token, bpy.data.scenes.new(f"raylab: {level.title}"))
     s = level.scene_scale
     resolution = level.scene.get("resolution", [480, 360])
     scene.render.resolution_x, scene.render.resolution_y = int(resolution[0]), int(resolution[1])
@@ -89,16 +100,17 @@ def _new_scene(level):
         pass  # the render engine is not registered: the level still teaches with the overlays
 
     mesh = bpy.data.meshes.new("level mesh")
-    mesh.materials.append(principled_material("level mesh", tuple(level.mesh.get("color", (0.8, 0.55, 0.35)))))
-    obj = bpy.data.objects.new(MESH_OBJECT_NAME, mesh)
+    mesh.materials.append(_own(token, principled_material("level mesh",
+                                                          tuple(level.mesh.get("color", (0.8, 0.55, 0.35))))))
+    obj = _own(token, bpy.data.objects.new(MESH_OBJECT_NAME, mesh))
     scene.collection.objects.link(obj)
     filename = level.mesh["file"]
     _set_mesh(obj, *shipped_mesh_arrays(filename), MESH_SIZE * s, filename, mesh_credit(filename))
 
     for spec in level.objects:
-        _add_object(scene, spec, s)
+        _own(token, *_add_object(scene, spec, s))
 
-    camera = bpy.data.objects.new(CAMERA_NAME, bpy.data.cameras.new(CAMERA_NAME))
+    camera = _own(token, bpy.data.objects.new(CAMERA_NAME, _own(token, bpy.data.cameras.new(CAMERA_NAME))))
     camera.data.lens = float(level.camera.get("lens", 50.0))
     camera.data.clip_start, camera.data.clip_end = 0.1 * s, 1000.0 * s
     camera.matrix_world = _look_at(Vector(level.camera.get("location", (4.5, -6.0, 3.0))) * s,
@@ -106,17 +118,17 @@ def _new_scene(level):
     scene.collection.objects.link(camera)
     scene.camera = camera
 
-    sun = bpy.data.objects.new(SUN_NAME, bpy.data.lights.new(SUN_NAME, 'SUN'))
+    sun = _own(token, bpy.data.objects.new(SUN_NAME, _own(token, bpy.data.lights.new(SUN_NAME, 'SUN'))))
     sun.data.energy = 3.0
     # [scene] sun_rotation: XYZ Euler degrees, as Blender's Rotation field shows them.
     sun.rotation_euler = [math.radians(float(a)) for a in level.scene.get("sun_rotation", (40.0, 15.0, 30.0))]
     sun.location = Vector((3.0, -3.0, 5.0)) * s
     scene.collection.objects.link(sun)
-    scene.world = _new_world(level)
+    scene.world = _own(token, _new_world(level))
 
     scene[STATE_KEY] = {"id": level.id, "done": [0] * len(level.tasks), "mesh_object": obj.name,
                         "start_mesh": filename, "start_matrix": [v for row in obj.matrix_world for v in row],
-                        "scene_scale": s, "snapshots": "{}"}
+                        "scene_scale": s, "snapshots": "{}", "scene": scene.name, "token": token}
     return scene, obj
 
 
@@ -131,7 +143,7 @@ def _add_object(scene, spec, scale):
     obj.location = Vector(spec.get("location", (0.0, 0.0, 0.0))) * scale
     obj["raylab_credit"] = mesh_credit(filename)
     scene.collection.objects.link(obj)
-    return obj
+    return obj, mesh, mesh.materials[0]
 
 
 def _new_world(level):
@@ -145,7 +157,7 @@ def _new_world(level):
 
 def _place_probe(scene, level):
     from .. import probe
-    ray = probe.ensure_probe_object(scene)
+    ray = _own(state(scene)["token"], probe.ensure_probe_object(scene))
     s = level.scene_scale
     if isinstance(level.probe, dict) and "location" in level.probe:
         location = Vector(level.probe["location"]) * s
@@ -171,22 +183,49 @@ def _frame_views(window, level):
         area.tag_redraw()
 
 
+KEPT_SUFFIX = " (your objects)"  # a left level scene that holds objects the user added
+
+
 def _remove_scene(scene):
-    for obj in list(scene.objects):
-        if len(obj.users_scene) == 1:
-            data = obj.data
-            bpy.data.objects.remove(obj)
-            # The level's camera, sun and mesh data go with it (a user's mesh swapped in is a copy).
-            if data is not None and data.users == 0 and isinstance(data, (bpy.types.Camera, bpy.types.Light)):
-                (bpy.data.cameras if isinstance(data, bpy.types.Camera) else bpy.data.lights).remove(data)
+    """Leaves a level's scene: removes what the level made (its objects, their data, its world) and nothing
+    else. Objects the user added stay where they are: the scene is then kept as theirs, no longer a level."""
+    st = state(scene)
+    for obj in [o for o in scene.objects if owned(o, st) and len(o.users_scene) == 1]:
+        data, materials = obj.data, list(getattr(obj.data, "materials", ()))
+        bpy.data.objects.remove(obj)
+        if owned(data, st) and data.users == 0 and _data_collection(data) is not None:
+            _data_collection(data).remove(data)
+        for material in materials:
+            if owned(material, st) and material.users == 0:
+                bpy.data.materials.remove(material)
+    # What the user added lives only here (an object of theirs linked in from their scene stays there).
+    users = [o for o in scene.objects if len(o.users_scene) == 1] + list(scene.collection.children)
+    if users:
+        del scene[STATE_KEY]
+        scene.name = scene.name + KEPT_SUFFIX
+        return scene
     world = scene.world
     bpy.data.scenes.remove(scene)
-    if world is not None and world.users == 0:
+    if owned(world, st) and world.users == 0:
         bpy.data.worlds.remove(world)
+    return None
+
+
+def _data_collection(data):
+    """Where a level object's data lives in bpy.data (the level makes meshes, cameras and lights)."""
+    for kind, collection in ((bpy.types.Mesh, bpy.data.meshes), (bpy.types.Camera, bpy.data.cameras),
+                             (bpy.types.Light, bpy.data.lights)):
+        if isinstance(data, kind):
+            return collection
+    return None
 
 
 def _drop_name_suffixes(scene):
-    """The new scene was built while the previous level's objects still held the plain names."""
+    """The new scene was built while the previous level's scene and objects still held the plain names."""
+    base = re.sub(r"\.\d{3}$", "", scene.name)
+    if base != scene.name and base not in bpy.data.scenes:
+        scene.name = base
+        scene[STATE_KEY]["scene"] = base
     for obj in scene.objects:
         base = re.sub(r"\.\d{3}$", "", obj.name)
         if base != obj.name and base not in bpy.data.objects:
@@ -212,13 +251,12 @@ def open_level(context, level_id, root=None):
         _remove_scene(scene)
         raise
     windows = list(context.window_manager.windows)
-    old = {w.scene for w in windows} if windows else {context.scene}
     for window in windows:
         window.scene = scene
         _frame_views(window, level)
-    for previous in old:
-        if previous != scene and state(previous) is not None:
-            _remove_scene(previous)
+    # Every other level scene goes (shown or not: none piles up); the user's scenes, copies included, stay.
+    for previous in [s for s in bpy.data.scenes if s != scene and state(s) is not None]:
+        _remove_scene(previous)
     _drop_name_suffixes(scene)
     # Deleting the previous level's objects and scene copies the shown scene's evaluated objects again
     # without re-evaluating their transforms, and Blender 3.4 then drew the level mesh black (as if its

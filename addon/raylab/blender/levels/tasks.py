@@ -11,7 +11,7 @@ from mathutils import Matrix, Vector
 from .. import draw
 from ..structure_cache import may_deform
 from .reading import LevelError, find_level
-from .state import STATE_KEY, level_mesh_object, state
+from .state import STATE_KEY, keep_stamps, level_mesh_object, state
 
 CHECK_INTERVAL = 0.5     # seconds between timer checks (renders and comparisons fire no depsgraph update)
 
@@ -148,11 +148,13 @@ def check_tasks(scene):
 
 @bpy.app.handlers.persistent
 def _on_depsgraph_update(scene, _depsgraph):
+    keep_stamps()  # a new scene copied from a level is the user's: it drops the copied state at once
     check_tasks(scene)
 
 
 def _check_timer():
     window = bpy.context.window or next(iter(bpy.context.window_manager.windows), None)
+    keep_stamps()
     if window is not None:
         check_tasks(window.scene)
     return CHECK_INTERVAL
