@@ -73,11 +73,11 @@ def run_watched(command, timeout=None, env=None, check=False, **_):
     return result
 
 
-def run_gui_blender(script, args, blend=None, timeout=None, extra=()):
-    """Runs `script` inside Blender in a 1600x900 Xvfb window; the script quits Blender itself.
-    `extra`: more Blender flags (e.g. --enable-event-simulate). Returns the finished process (its
+def run_gui_blender(script, args, blend=None, timeout=None, extra=(), screen=SCREEN):
+    """Runs `script` inside Blender in a 1600x900 Xvfb window (or `screen`); the script quits Blender
+    itself. `extra`: more Blender flags (e.g. --enable-event-simulate). Returns the finished process (its
     output helps when a report file is missing)."""
-    command = ["xvfb-run", "-a", "-s", SCREEN, "blender", "--factory-startup", *extra]
+    command = ["xvfb-run", "-a", "-s", screen, "blender", "--factory-startup", *extra]
     command += [blend] if blend else []
     command += ["--python", script, "--", *args]
     return run_watched(command)

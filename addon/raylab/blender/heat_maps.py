@@ -25,8 +25,8 @@ import bpy
 import numpy as np
 
 from .. import api
-from . import compare, image_files, preferences
-from .level_panels import TASK_SECTIONS, wrapped
+from . import compare, image_files, preferences, text_fit
+from .level_panels import TASK_SECTIONS
 from .scene_export import export_scene
 
 RECORD = "raylab_heat_maps"         # scene ID property (see the module docstring)
@@ -196,22 +196,16 @@ def draw_numbers(layout, context):
     structures = record["structures"]
     box = layout.box()
     width, height = record["size"]
-    box.label(text=f"Heat maps, left to right ({width} x {height} pixels, 1 ray each)", icon='IMAGE_DATA')
-    for line in wrapped(context, "One scale: " + api.heat_scale_text(record["label"], record["maximum"]), 2):
-        box.label(text=line)
-    if structures:
-        grid = box.grid_flow(row_major=True, columns=len(structures) + 1, even_columns=False, align=True)
-        rows = (("", lambda name, s: name),
-                ("hardest", lambda name, s: f"{s['hardest']:,}"),
-                ("at x, y", lambda name, s: "{}, {}".format(*s["probe_pixel"])),
-                ("mean", lambda name, s: f"{s['mean']:.1f}"),
-                ("total", lambda name, s: f"{s['total']:,.0f}"))
-        for title, show in rows:
-            grid.label(text=title)
-            for name, numbers in structures.items():
-                grid.label(text=show(name, numbers))
+    text_fit.label(box, context, f"Heat maps, left to right ({width} x {height} pixels, 1 ray each)", 'IMAGE_DATA',
+                   boxes=1)
+    text_fit.label(box, context, "One scale: " + api.heat_scale_text(record["label"], record["maximum"]), boxes=1)
+    # A line per map: a table of five columns does not fit the sidebar.
+    for name, s in structures.items():
+        text_fit.label(box, context, f"{name}: hardest {s['hardest']:,} at ({s['probe_pixel'][0]}, "
+                                     f"{s['probe_pixel'][1]}), mean {s['mean']:.1f}, total {s['total']:,.0f}",
+                       'DOT', boxes=1)
     for name, why in record["skipped"].items():
-        box.label(text=f"{name} {why}", icon='ERROR')
+        text_fit.label(box, context, f"{name} {why}", 'ERROR', boxes=1)
 
 
 class RAYLAB_PT_heat_maps(bpy.types.Panel):

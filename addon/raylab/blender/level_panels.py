@@ -6,7 +6,7 @@ import textwrap
 import bpy
 import bpy.utils.previews
 
-from . import levels
+from . import levels, text_fit
 
 _previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
 TASK_SECTIONS = []  # draw(layout, context) hooks drawn under the tasks, before the controls
@@ -26,13 +26,6 @@ def diagram_icon(path):
 def wrapped(context, text, indent=0):
     width = context.region.width / (CHARACTER_WIDTH * context.preferences.view.ui_scale)
     return textwrap.wrap(text, max(16, int(width) - indent)) or [""]
-
-
-def _label_lines(layout, lines, first_icon='NONE'):
-    column = layout.column(align=True)
-    column.scale_y = 0.8
-    for i, line in enumerate(lines):
-        column.label(text=line, icon=first_icon if i == 0 else 'BLANK1' if first_icon != 'NONE' else 'NONE')
 
 
 def current_level(context):
@@ -55,16 +48,18 @@ def _level_buttons(layout, context, current):
     try:
         all_levels, errors = levels.available_levels()
     except levels.LevelError as error:
-        layout.label(text=str(error), icon='ERROR')
+        text_fit.label(layout, context, str(error), 'ERROR')
         return
     column = layout.column(align=True)
     for item in all_levels:
         is_current = current is not None and item.id == current.id
-        op = column.operator(levels.RAYLAB_OT_level_open.bl_idname, text=item.title, depress=is_current,
+        # A button cannot wrap: a title too long for it shows its name, the part before the colon.
+        title = item.title if text_fit.fits(context, item.title, icon=True) else item.title.partition(":")[0]
+        op = column.operator(levels.RAYLAB_OT_level_open.bl_idname, text=title, depress=is_current,
                              icon='CHECKMARK' if is_current else 'PLAY')
         op.level_id = item.id
     for error in errors:
-        _label_lines(layout, wrapped(context, str(error), 4), 'ERROR')
+        text_fit.label(layout, context, str(error), 'ERROR')
 
 
 class RAYLAB_PT_levels(_LevelPanel, bpy.types.Panel):
@@ -82,8 +77,8 @@ class RAYLAB_PT_levels(_LevelPanel, bpy.types.Panel):
         row.operator(levels.RAYLAB_OT_level_next.bl_idname, text="Next", icon='TRIA_RIGHT')
         if level is not None:
             box = layout.box()
-            _label_lines(box, wrapped(context, level.title, 8), 'INFO')  # the box and the icon take room
-            _label_lines(box, wrapped(context, "Goal: " + level.goal, 2))
+            text_fit.label(box, context, level.title, 'INFO', boxes=1)
+            text_fit.label(box, context, "Goal: " + level.goal, boxes=1)
 
 
 class _OpenLevelPanel(_LevelPanel):
@@ -104,11 +99,11 @@ class RAYLAB_PT_level_text(_OpenLevelPanel, bpy.types.Panel):
             kind = block[0]
             if kind == "heading":
                 layout.separator()
-                _label_lines(layout, wrapped(context, block[1], 6), 'BOOKMARKS')
+                text_fit.label(layout, context, block[1], 'BOOKMARKS')
             elif kind == "paragraph":
-                _label_lines(layout, wrapped(context, block[1]))
+                text_fit.label(layout, context, block[1])
             elif kind == "bullet":
-                _label_lines(layout, wrapped(context, block[1], 4), 'DOT')
+                text_fit.label(layout, context, block[1], 'DOT')
             else:
                 _, path, caption = block
                 # template_icon draws a square: fill the sidebar's width with it.
@@ -130,11 +125,11 @@ class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
         for i, (text, done) in enumerate(tasks):
             column = layout.column()
             column.active = done or i == first_open  # later tasks wait their turn
-            _label_lines(column, wrapped(context, text, 4), 'CHECKBOX_HLT' if done else 'CHECKBOX_DEHLT')
+            text_fit.label(column, context, text, 'CHECKBOX_HLT' if done else 'CHECKBOX_DEHLT')
         for draw_section in TASK_SECTIONS:  # the experiments' results (experiments/*.py add theirs)
             draw_section(layout, context)
         if tasks and first_open is None:
-            layout.label(text="All done: on to the next level!", icon='FUND')
+            text_fit.label(layout, context, "All done: on to the next level!", 'FUND')
         controls = current_level(context).controls
         if controls:
             layout.separator()
@@ -155,11 +150,11 @@ class RAYLAB_PT_level_mesh(_OpenLevelPanel, bpy.types.Panel):
         layout = self.layout
         obj = levels.level_mesh_object(context.scene)
         if obj is None:
-            layout.label(text="The level's mesh was deleted: open the level again", icon='ERROR')
+            text_fit.label(layout, context, "The level's mesh was deleted: open the level again", 'ERROR')
             return
-        layout.label(text=f"{obj.get('raylab_mesh_source', '?')}: {len(obj.data.polygons):,} triangles",
-                     icon='MESH_DATA')
-        _label_lines(layout, wrapped(context, "Credit: " + obj.get("raylab_credit", ""), 4))
+        text_fit.label(layout, context, f"{obj.get('raylab_mesh_source', '?')}: {len(obj.data.polygons):,} triangles",
+                       'MESH_DATA')
+        text_fit.label(layout, context, "Credit: " + obj.get("raylab_credit", ""))
         layout.operator_menu_enum(levels.RAYLAB_OT_level_swap_mesh.bl_idname, "source", text="Swap mesh",
                                   icon='FILE_REFRESH')
 

@@ -2,15 +2,16 @@
 the width Blender gives the label, measured with blf in the UI's own font and size, so Blender never elides
 the middle of a line ("a rand... ray"). One function, `label`, draws a wrapped text; `lines` returns them.
 
-The widths below are Blender's layout constants (UI_UNIT_X = 20 px at scale 1): a panel's margins, a box's
-margins, the icon of a label and the padding Blender keeps either side of a label's text.
+The widths below are Blender's layout in units (UI_UNIT_X = 20 px at scale 1), measured on Blender 3.4, 4.3
+and 5.2 in a window (the widest label each shows in full): a panel's margins with the sidebar's tab strip,
+a box's margins, the icon of a label, and the padding Blender keeps either side of a label's text.
 """
 import blf
 
 UNIT = 20.0             # UI_UNIT_X at UI scale 1
-PANEL_MARGIN = 1.5      # units: the region's edges, the panel's inner margins and the scroll bar, together
-BOX_MARGIN = 0.6        # units a box (and each nested box) takes from the width
-ICON = 1.0              # units an icon (or its BLANK1 stand-in) takes
+PANEL_MARGIN = 2.3      # units: the tab strip, the region's edges and the panel's inner margins, together
+BOX_MARGIN = 0.4        # units a box (and each nested box) takes from the width
+ICON = 1.2              # units an icon (or its BLANK1 stand-in) takes
 TEXT_PADDING = 0.5      # units of padding Blender keeps around a label's text
 LABEL_POINTS = 11.0     # the label font's size when the preferences have no style (at UI scale 1)
 
@@ -46,6 +47,11 @@ def available(context, icon=False, boxes=0, columns=1, width=None):
     region_width = width if width is not None else context.region.width
     inner = (region_width - UNIT * s * (PANEL_MARGIN + BOX_MARGIN * boxes)) / max(1, columns)
     return inner - UNIT * s * ((ICON if icon else 0.0) + TEXT_PADDING)
+
+
+def fits(context, text, icon=False, boxes=0, columns=1, width=None):
+    """True if `text` fits on one line (a button's text cannot wrap)."""
+    return measure(text, font_pixels(context)) <= available(context, icon, boxes, columns, width)
 
 
 def lines(context, text, icon=False, boxes=0, columns=1, width=None):

@@ -13,7 +13,7 @@ import bpy
 import numpy as np
 
 from ... import api
-from .. import draw, level_panels
+from .. import draw, level_panels, text_fit
 from ..levels import LevelError, level_mesh_object, object_mesh_arrays
 from ..mesh_data import mesh_fingerprint
 
@@ -92,11 +92,11 @@ def draw_results(layout, context):
     if leaks is None:
         return
     box = layout.box()
-    box.label(text=f"Leak test: {leaks['rays']:,} rays from inside", icon='MOD_FLUIDSIM')
+    text_fit.label(box, context, f"Leak test: {leaks['rays']:,} rays from inside", 'MOD_FLUIDSIM', boxes=1)
     for test, info in api.TRIANGLE_TEST_INFO.items():
-        box.label(text=f"{info['label']}: {leaks[test]:,} leaked")
+        text_fit.label(box, context, f"{info['label']}: {leaks[test]:,} leaked", boxes=1)
     if leak_segments(context.scene) is not None:
-        box.label(text="Escaped rays: red in the viewport", icon='INFO')
+        text_fit.label(box, context, "Escaped rays: red in the viewport", 'INFO', boxes=1)
 
 
 class RAYLAB_OT_level_leak_test(bpy.types.Operator):

@@ -1,0 +1,45 @@
+"""Every text of the raylab tab fits the sidebar at Blender's default width (issue 27, item 2): in a real
+window, at 1600x900 and at 1280x720, every level's panels are drawn into a recording layout at the
+sidebar's real width (as the level opens, with its tools' results, and with its mesh deleted) and every
+label, button and property text is measured in the UI font against the room Blender gives it. Blender
+elides the middle of a text that does not fit ("a rand... ray"), so none may be wider than its room.
+
+Runs tests/gui/panel_text_session.py inside Blender (with --enable-event-simulate, to click the raylab tab).
+"""
+import os
+
+import pytest
+
+from gui_util import OUT, ROOT, read_report, run_gui_blender, start_blend
+
+LEVELS = sorted(d for d in os.listdir(os.path.join(ROOT, "levels"))
+                if os.path.exists(os.path.join(ROOT, "levels", d, "level.toml")))
+SCRIPT = os.path.join(ROOT, "tests", "gui", "panel_text_session.py")
+DEFAULT_SIDEBAR = (200, 320)  # the default sidebar: 229 px on Blender 3.4, 291 on 4.3 and 5.2 (UI scale 1)
+
+
+@pytest.fixture(scope="module", params=["1600x900", "1280x720"])
+def measured(request, tmp_path_factory):
+    out = os.path.join(OUT, f"panel_text_{request.param}")
+    os.makedirs(out, exist_ok=True)
+    report_path = os.path.join(out, "panel_text.json")
+    if os.path.exists(report_path):
+        os.remove(report_path)
+    blend = start_blend(tmp_path_factory.mktemp("panel_text"))
+    process = run_gui_blender(SCRIPT, [out, *LEVELS], blend, extra=["--enable-event-simulate"],
+                              screen=f"-screen 0 {request.param}x24")
+    return read_report(report_path, process)["levels"]
+
+
+def test_every_level_was_measured_at_the_default_sidebar_width(measured):
+    assert sorted(measured) == LEVELS
+    for level_id, entry in measured.items():
+        assert DEFAULT_SIDEBAR[0] <= entry["sidebar_width"] <= DEFAULT_SIDEBAR[1], (level_id, entry["sidebar_width"])
+        assert entry["panels"] == 3  # opened, with its tools' results, with its mesh deleted
+
+
+@pytest.mark.parametrize("level_id", LEVELS)
+def test_no_text_is_cut_in_any_panel(measured, level_id):
+    overflow = measured[level_id]["overflow"]
+    assert not overflow, "\n".join(f"{panel} ({state}): {text!r} is {width} px in {room} px"
+                                   for panel, items in overflow.items() for state, text, width, room in items)
