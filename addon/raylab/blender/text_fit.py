@@ -9,6 +9,8 @@ import blf
 
 UNIT = 20.0             # UI_UNIT_X at UI scale 1
 PANEL_MARGIN = 1.5      # units: the region's edges, the panel's inner margins and the scroll bar, together
+TABS = 1.0              # units: a sidebar's category tabs (UI_PANEL_CATEGORY_MARGIN_WIDTH); taken in every
+                        # region: where there are none, text wraps a little early, never elided
 BOX_MARGIN = 0.6        # units a box (and each nested box) takes from the width
 ICON = 1.0              # units an icon (or its BLANK1 stand-in) takes
 TEXT_PADDING = 0.5      # units of padding Blender keeps around a label's text
@@ -40,11 +42,11 @@ def measure(text, pixels):
 
 
 def available(context, icon=False, boxes=0, columns=1, width=None):
-    """The pixels a label's text gets in the current region: its width less the panel's and the boxes'
-    margins, split into `columns`, less the icon and the text's padding."""
+    """The pixels a label's text gets in the current region: its width less the panel's, the tabs' and the
+    boxes' margins, split into `columns`, less the icon and the text's padding."""
     s = scale(context)
     region_width = width if width is not None else context.region.width
-    inner = (region_width - UNIT * s * (PANEL_MARGIN + BOX_MARGIN * boxes)) / max(1, columns)
+    inner = (region_width - UNIT * s * (PANEL_MARGIN + TABS + BOX_MARGIN * boxes)) / max(1, columns)
     return inner - UNIT * s * ((ICON if icon else 0.0) + TEXT_PADDING)
 
 
