@@ -1,6 +1,7 @@
 """Compare Structures as a job: driven to its end on a worker thread it gives what rendering with each
 structure one after the other gives; cancelled, it stops and stores nothing; a structure estimated to
-take longer than the time limit is skipped with a note that says so.
+take longer than the time limit is not rendered in full: the table shows its numbers estimated from a
+sample (marked), with a note that says so, and every text of the table fits the default sidebar.
 
 (The modal operator itself, its progress bar and Esc, need a window: tests/gui/test_compare_gui.py.)"""
 import threading
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 import raylab
-from raylab.blender import compare, default_scene, render_engine, scene_export
+from raylab.blender import compare, default_scene, render_engine, render_stats, scene_export, text_fit
 
 RESOLUTION = (96, 72)
 COUNTS = ("rays", "rays_primary", "rays_shadow", "triangle_tests", "box_tests", "rays_ignored", "memory_bytes")
@@ -84,17 +85,78 @@ def test_cancel_stops_the_worker_and_stores_nothing(demo_scene):
     assert compare.SKIPPED not in demo_scene
 
 
-def test_a_structure_over_the_time_limit_is_skipped_with_a_note(demo_scene):
+def test_a_structure_over_the_time_limit_is_estimated_from_a_sample_with_a_note(demo_scene):
     job = drive(compare.new_job(bpy.context, time_limit=1e-9))
     assert job.error is None
     assert [r.structure for r in job.results] == list(raylab.STRUCTURES)
     for result in job.results:
-        assert result.stats is None and result.estimate > 0.0
+        assert result.stats is None and result.image is None and result.estimate > 0.0
         assert result.note.startswith("skipped") and "over the limit" in result.note
+        assert "e+" not in result.note and "e-0" not in result.note.split("over the limit")[0], result.note
         assert result.structure in compare.result_line(result) and "skipped" in compare.result_line(result)
     job.store(demo_scene, 1)
-    assert dict(demo_scene[compare.COMPARISON]) == {}
+    # The table still has every structure, brute force first, each row marked as an estimate.
+    table = demo_scene[compare.COMPARISON]
+    assert list(table.keys()) == list(raylab.STRUCTURES)
+    assert all(row[render_stats.ESTIMATED_FROM] <= 1.5 * compare.SAMPLE_PIXELS for row in table.values())
+    assert (table["none"]["width"], table["none"]["height"]) == RESOLUTION
+    texts = dict(render_stats.rows(table["none"]))
+    assert texts["Render"].startswith("~") and texts["Triangle tests"].startswith("~")
+    assert not texts["Memory"].startswith("~") and not texts["Primary rays"].startswith("~")
+    assert "estimated from a" in render_stats.estimate_note(table["none"])
     assert set(demo_scene[compare.SKIPPED].keys()) == set(raylab.STRUCTURES)
+
+
+def test_the_estimate_is_the_full_render_scaled_down_to_its_sample(demo_scene):
+    """Brute force's estimate against its full render: the same memory and primary rays (measured), and
+    triangle tests and rays close to the full render's (scaled from the sample)."""
+    job = compare.new_job(bpy.context, time_limit=1e-9)
+    job.structures = ("none",)
+    job.run()
+    estimated = job.results[0].estimated
+    exported = scene_export.export_scene(bpy.context.evaluated_depsgraph_get())
+    full = render_engine.render_exported(exported, demo_scene.raylab_render, structure="none").stats
+    assert (estimated["width"], estimated["height"]) == (full["width"], full["height"]) == RESOLUTION
+    for key in ("memory_bytes", "rays_primary"):
+        assert estimated[key] == full[key], key
+    for key in ("rays", "rays_shadow", "triangle_tests"):
+        assert estimated[key] == pytest.approx(full[key], rel=0.1), key
+
+
+def test_every_text_of_the_table_fits_its_column_at_the_default_sidebar_width(demo_scene):
+    """At Blender's default sidebar width (about 230 px) five columns leave no room, so each measure gets
+    a row per structure, name beside value; a wide sidebar gets a column per structure. Either way every
+    name and value fits the width it is drawn in (Blender would elide it), estimates included."""
+    context = bpy.context
+    pixels = text_fit.font_pixels(context)
+    for time_limit in (0.0, 1e-9):  # measured, then estimated
+        drive(compare.new_job(context, time_limit=time_limit)).store(demo_scene, 1)
+        table = demo_scene[compare.COMPARISON]  # what the panel draws
+        for width, columns in ((230, 2), (600, len(table))):
+            layout_columns, sections = compare.table_layout(context, table, width=width)
+            assert layout_columns == columns, width
+            assert [title for title, _ in sections] == [title for _, title, _ in render_stats.FIELDS]
+            room = text_fit.available(context, boxes=compare.BOXES, columns=columns, width=width)
+            for title, cells in sections:
+                assert [name for name, _ in cells] == list(raylab.STRUCTURES)
+                for name, text in cells:
+                    assert text_fit.measure(text, pixels) <= room, (width, title, text)
+                    assert text_fit.measure(name, pixels) <= room, (width, name)
+                    assert "e+" not in text and "e-" not in text, text
+
+
+def test_times_and_sizes_read_short():
+    assert render_stats.seconds_text(9.79e3) == "2.7 h"
+    assert render_stats.seconds_text(46.2) == "46 s"
+    assert render_stats.seconds_text(4.62) == "4.6 s"
+    assert render_stats.seconds_text(0.0321) == "32 ms"
+    assert render_stats.seconds_text(0.00045) == "0.45 ms"
+    assert render_stats.seconds_text(450.0) == "7.5 min"
+    assert render_stats.seconds_text(59.9) == "1 min" and render_stats.seconds_text(5.0) == "5 s"
+    assert render_stats.bytes_text(443_000) == "443 kB"
+    assert render_stats.bytes_text(8_440_000) == "8.4 MB"
+    assert render_stats.bytes_text(104) == "104 B"
+    assert render_stats.human_count(1234) == "1.2k"
 
 
 def test_the_estimate_renders_a_small_sample_of_the_same_view():

@@ -8,7 +8,11 @@ level with the dragon swapped in, as a student runs it from the sidebar.
    timer counts its ticks (the UI answers) and compare_running.png shows the panel's progress bar; then
    Esc (a simulated key press) cancels it and compare_cancelled.png shows the panel after it.
 2. Started with a time limit of 5 s, it runs to its end; the structures estimated over the limit are
-   skipped with a note (compare_skipped.png).
+   not rendered in full: the table shows their numbers estimated from a sample, with a note. The panel at
+   the sidebar's default width, scrolled to its end (compare_skipped.png: the last measures, the estimate's
+   footnote and the notes) and to the table's start (compare_table.png); then dragged wider, a column
+   per structure (compare_table_wide.png). What text_fit drew meanwhile
+   (each line, its measured and its available width) goes into the report.
 OUT_DIR/compare_session.json holds what was seen, or "error".
 """
 import json
@@ -31,6 +35,9 @@ report = {}
 WATCHDOG_SECONDS = 500
 TIME_LIMIT = 5.0
 WHEEL_STEPS = 80  # more than the sidebar's height needs: the view stops at its end
+TABLE_STEPS_UP = 34  # wheel steps back up from the end: the table's start (about 40 px each)
+WIDEN = 260  # pixels the sidebar is dragged wider by, for a column per structure
+EDGE_GRIP = 8  # pixels inside the sidebar's left edge where Blender's resize grip is (3.4, region overlap)
 ticks = []
 
 
@@ -56,15 +63,15 @@ def tick():
     return 0.1
 
 
-def scroll_sidebar_down():
+def scroll_sidebar_down(steps=WHEEL_STEPS, wheel='WHEELDOWNMOUSE'):
     """The Structure Comparison panel comes last, below the level's panels: wheel the sidebar down, as a
     user does (simulated wheel events, handled once this step returns). Not view2d.scroll_down inside an
     override: while the comparison's worker runs that could crash Blender 3.4 (blender_window.py)."""
     window, _, _, sidebar = view3d()
     x, y = sidebar.x + sidebar.width // 2, sidebar.y + sidebar.height // 2
     window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    for _ in range(WHEEL_STEPS):
-        window.event_simulate(type='WHEELDOWNMOUSE', value='PRESS', x=x, y=y)
+    for _ in range(steps):
+        window.event_simulate(type=wheel, value='PRESS', x=x, y=y)
     window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=y)  # no tooltip in the screenshots
 
 
@@ -134,12 +141,64 @@ def start_limited():
 
 
 def after_limited():
-    from raylab.blender import compare
+    from raylab.blender import compare, render_stats, text_fit
     scene = bpy.context.window_manager.windows[0].scene
+    # {structure: whether its row is an estimate}
     report["limited"] = dict(job=compare.running_job() is not None, workers=workers(),
-                             compared=list(scene.get(compare.COMPARISON, {}).keys()),
+                             compared={k: render_stats.ESTIMATED_FROM in v
+                                       for k, v in scene.get(compare.COMPARISON, {}).items()},
                              skipped={k: v for k, v in scene.get(compare.SKIPPED, {}).items()})
+    text_fit.RECORD = []  # from now on, every line text_fit draws
     scroll_sidebar_down()
+
+
+def table_texts(key):
+    """report[key]: the table's texts as the panel lays them out at the sidebar's width, and every line
+    text_fit drew since the last call (each with its measured and its available width)."""
+    def step():
+        from raylab.blender import compare, render_stats, text_fit
+        scene = bpy.context.window_manager.windows[0].scene
+        table = scene[compare.COMPARISON]
+        sidebar = view3d().sidebar
+        columns, sections = compare.table_layout(bpy.context, table, width=sidebar.width)
+        report[key] = dict(columns=columns, sidebar_width=sidebar.width, ui_scale=text_fit.scale(bpy.context),
+                           cells=[[title, [list(cell) for cell in cells]] for title, cells in sections],
+                           note=render_stats.estimate_note(table["none"]),
+                           drawn=[list(entry) for entry in text_fit.RECORD])
+        text_fit.RECORD = []
+    return step
+
+
+def table_start():
+    scroll_sidebar_down(TABLE_STEPS_UP, 'WHEELUPMOUSE')
+
+
+def widen_sidebar():
+    """The steps that drag the sidebar's left edge WIDEN pixels to the left, as a user does (simulated
+    mouse events, one kind a step: Blender handles each before the next). The edge's grip lies a few
+    pixels inside the region (EDGE_GRIP)."""
+    def at(dx):
+        window, _, _, sidebar = view3d()
+        return window, sidebar.x + EDGE_GRIP + dx, sidebar.y + sidebar.height // 2
+
+    def hover():
+        window, x, y = at(0)
+        window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+
+    def press():
+        window, x, y = at(0)
+        window.event_simulate(type='LEFTMOUSE', value='PRESS', x=x, y=y)
+
+    def drag():
+        window, x, y = at(0)
+        for step in range(1, 11):
+            window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x - WIDEN * step // 10, y=y)
+
+    def release():
+        window, x, y = at(0)  # the edge has moved with the pointer
+        window.event_simulate(type='LEFTMOUSE', value='RELEASE', x=x, y=y)
+        window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=40, y=y)
+    return [hover, press, drag, release]
 
 
 def job_over():
@@ -153,7 +212,9 @@ def shooter(name):
 
 STEPS = [open_race, click_raylab_tab, scroll_sidebar_down, start_unlimited, lambda: None, while_running,
          shoot_running, press_escape, wait_until(job_over, 120.0), after_cancel, shooter("compare_cancelled.png"),
-         start_limited, wait_until(job_over, 400.0), after_limited, shooter("compare_skipped.png")]
+         start_limited, wait_until(job_over, 400.0), after_limited, shooter("compare_skipped.png"),
+         table_texts("table"), table_start, shooter("compare_table.png"), *widen_sidebar(), scroll_sidebar_down,
+         shooter("compare_table_wide.png"), table_texts("table_wide")]
 
 
 def run_steps():

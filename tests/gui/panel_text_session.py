@@ -153,7 +153,7 @@ def overflowing(root, width, context):
             for child in children:
                 walk(child, inner)
 
-    walk(root, width - unit * text_fit.PANEL_MARGIN)
+    walk(root, text_fit.panel_width(context, width))
     return found
 
 

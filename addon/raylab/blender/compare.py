@@ -6,7 +6,8 @@ operator polls it from a timer (progress in the cursor, the status bar and the p
 structure; Esc cancels). The worker never touches bpy: it gets plain arrays and dicts, the native core
 releases the GIL while it builds and renders, and the results are written to the scene on the main
 thread when the job ends. Before each render a small sample of its pixels is rendered: a structure whose
-estimated time exceeds the Preferences' limit is skipped with a note instead of freezing for minutes.
+estimated time exceeds the Preferences' limit is not rendered in full, instead of freezing for minutes; the
+table shows the sample's numbers scaled to the full image, marked as estimates, with a note.
 """
 import math
 import threading
@@ -16,14 +17,13 @@ import bpy
 
 from .. import api
 
-from . import preferences, properties, render_stats
-from .level_panels import wrapped
+from . import preferences, properties, render_stats, text_fit
 from .scene_export import build_scene, export_scene, render_settings
 
-COMPARISON = "raylab_comparison"   # scene ID property: {structure: render_stats.record}
-SKIPPED = "raylab_comparison_skipped"  # scene ID property: {structure: why it was not rendered}
+COMPARISON = "raylab_comparison"   # scene ID property: {structure: render_stats.record} (estimated or not)
+SKIPPED = "raylab_comparison_skipped"  # scene ID property: {structure: why it was not rendered in full}
 
-SAMPLE_PIXELS = 256     # pixels of the sample render that estimates a structure's time
+SAMPLE_PIXELS = 256     # pixels of the sample render that estimates a structure's time and counts
 SAMPLE_TILE_SIZE = 8    # the sample's tiles: small, so that it runs on every core as the render does
 POLL_SECONDS = 0.1      # the modal operator's timer
 
@@ -46,6 +46,7 @@ class StructureResult:
     image: object = None    # the render's (H, W, 4) float32 image; None when skipped
     cost: dict = None       # the render's per-pixel counters (COUNTERS -> (H, W) float32); None when skipped
     estimate: float = None  # seconds the sample predicted (None: no time limit, no estimate)
+    estimated: dict = None  # when skipped: the sample's stats scaled to the full image (render_stats.scaled_to_image)
     note: str = ""          # why it was skipped
 
 
@@ -113,13 +114,15 @@ class CompareJob:
         scene, _ = build_scene(self.exported, structure=structure, **self.build)
         estimate = None
         if self.time_limit > 0.0:
-            estimate = self._estimate(scene)
-            if estimate is None:  # cancelled
+            estimated = self._estimate(scene)
+            if estimated is None:  # cancelled
                 return
+            estimate = estimated["render_seconds"]
             if estimate > self.time_limit:
-                self.results.append(StructureResult(structure, estimate=estimate, note=(
-                    f"skipped: its render would take about {estimate:.3g} s, over the limit of "
-                    f"{self.time_limit:.3g} s (raise it in the add-on's Preferences)")))
+                self.results.append(StructureResult(structure, estimate=estimate, estimated=estimated, note=(
+                    f"skipped: its full render would take about {render_stats.seconds_text(estimate)}, over "
+                    f"the limit of {render_stats.seconds_text(self.time_limit)} (raise it in the add-on's "
+                    "Preferences)")))
                 return
         result = api.render(scene, self.exported.camera, self.exported.lights, self.exported.materials,
                             self.settings, progress=progress)
@@ -128,18 +131,22 @@ class CompareJob:
                                                 cost=result.cost, estimate=estimate))
 
     def _estimate(self, scene):
-        """Seconds the full render would take, from a render of about SAMPLE_PIXELS of its pixels;
-        None when cancelled."""
-        camera, ratio = sample_camera(self.exported.camera)
+        """The full render's stats as a render of about SAMPLE_PIXELS of its pixels estimates them
+        (render_stats.scaled_to_image: its render_seconds the time the full render would take); None when
+        cancelled."""
+        camera, _ = sample_camera(self.exported.camera)
         sample = api.render(scene, camera, self.exported.lights, self.exported.materials,
                             dict(self.settings, tile_size=SAMPLE_TILE_SIZE),
                             progress=lambda _: self._cancel.is_set())
-        return None if sample.cancelled else sample.stats["render_seconds"] * ratio
+        if sample.cancelled:
+            return None
+        return render_stats.scaled_to_image(sample.stats, *api.image_size(self.exported.camera))
 
     def store(self, scene, super_sampling):
-        """Writes the finished comparison on the scene (main thread only)."""
-        scene[COMPARISON] = {r.structure: render_stats.record(r.stats, super_sampling)
-                             for r in self.results if r.stats is not None}
+        """Writes the finished comparison on the scene (main thread only): a skipped structure's row is
+        its estimate."""
+        scene[COMPARISON] = {r.structure: render_stats.record(r.estimated if r.stats is None else r.stats, super_sampling)
+                             for r in self.results if r.stats is not None or r.estimated is not None}
         scene[SKIPPED] = {r.structure: r.note for r in self.results if r.stats is None}
 
 
@@ -308,13 +315,15 @@ class RAYLAB_OT_compare_structures(StructureJobOperator, bpy.types.Operator):
     def _finish(self, context, job):
         job.store(context.scene, context.scene.raylab_render.super_sampling)
         rendered = [r for r in job.results if r.stats is not None]
+        skipped = len(job.results) - len(rendered)
         if not rendered:
-            self.report({'WARNING'}, f"raylab: every structure was skipped ({len(job.results)})")
+            self.report({'WARNING'}, f"raylab: every structure was over the time limit ({skipped}): "
+                                     "the table shows estimates from a sample")
             return {'FINISHED'}
         fastest = min(rendered, key=lambda r: r.stats["render_seconds"]).structure
-        skipped = len(job.results) - len(rendered)
         self.report({'INFO'}, f"raylab: compared {len(rendered)} structures"
-                              + (f" ({skipped} skipped)" if skipped else "") + f"; fastest render: {fastest}")
+                              + (f" ({skipped} over the time limit, estimated from a sample)" if skipped else "")
+                              + f"; fastest render: {fastest}")
         return {'FINISHED'}
 
 
@@ -329,6 +338,58 @@ def _tag_sidebar(context):
 
 def _progress_percent(_self):
     return 100.0 * _running.fraction if _running is not None else 0.0
+
+
+BOXES = 1  # the table's values sit in a box (text_fit's margins)
+
+
+def table_layout(context, table, width=None):
+    """How the table (scene[COMPARISON]) is drawn in a region `width` pixels wide (the current one's by
+    default): (columns, sections), sections a (title, [(structure, text)]) per measure. With a column per
+    structure (columns == len(table)) the names head the columns, as long as every name and value fits
+    its column; else (columns == 2) each measure has a row per structure, its name beside its value (with
+    two structures or fewer both give a text the same room, and the columns are drawn)."""
+    by_title = {title: [] for _, title, _ in render_stats.FIELDS}
+    for structure, row in table.items():
+        for title, text in render_stats.rows(row):
+            by_title[title].append((structure, text))
+    sections = [(title, cells) for title, cells in by_title.items() if cells]
+    columns = len(table)
+
+    def fits(text, boxes):
+        room = text_fit.available(context, boxes=boxes, columns=columns, width=width)
+        return text_fit.measure(text, text_fit.font_pixels(context)) <= room
+
+    if not (all(fits(name, 0) for name in table) and all(fits(text, BOXES) for _, cells in sections
+                                                         for _, text in cells)):
+        columns = 2
+    return columns, sections
+
+
+def draw_table(layout, context, table):
+    """The comparison table, each text at its measured width (table_layout), then the estimates' footnote."""
+    columns, sections = table_layout(context, table)
+    column = layout.column(align=True)
+    if columns == len(table):
+        header = column.grid_flow(row_major=True, columns=columns, even_columns=True)
+        for structure in table.keys():
+            text_fit.label(header, context, structure, columns=columns)
+    for title, cells in sections:
+        column.separator()
+        text_fit.label(column, context, title)
+        box = column.box()
+        if columns == len(table):
+            values = box.grid_flow(row_major=True, columns=columns, even_columns=True)
+            for _, text in cells:
+                text_fit.label(values, context, text, boxes=BOXES, columns=columns)
+            continue
+        for structure, text in cells:
+            split = box.split(factor=0.5)
+            text_fit.label(split, context, structure, boxes=BOXES, columns=columns)
+            text_fit.label(split, context, text, boxes=BOXES, columns=columns)
+    estimated = [row for row in table.values() if render_stats.ESTIMATED_FROM in row]
+    if estimated:
+        text_fit.label(layout, context, render_stats.estimate_note(estimated[0]))
 
 
 class RAYLAB_PT_comparison(bpy.types.Panel):
@@ -351,25 +412,12 @@ class RAYLAB_PT_comparison(bpy.types.Panel):
         else:
             layout.operator(RAYLAB_OT_compare_structures.bl_idname, icon='RENDER_STILL')
         table = scene.get(COMPARISON)
+        if table:
+            text_fit.label(layout, context, render_stats.size_text(next(iter(table.values()))))
+            draw_table(layout, context, table)
+        # Under the table, where its estimates are: why a structure was not rendered in full.
         for structure, note in (scene.get(SKIPPED) or {}).items():
-            column = layout.column(align=True)
-            for i, line in enumerate(wrapped(context, f"{structure} {note}", 4)):
-                column.label(text=line, icon='ERROR' if i == 0 else 'BLANK1')
-        if not table:
-            return
-        first = next(iter(table.values()))
-        layout.label(text=render_stats.size_text(first))
-        # The sidebar is narrow: one line of four values (a column per structure) under each measure.
-        column = layout.column(align=True)
-        header = column.grid_flow(row_major=True, columns=len(table), even_columns=True)
-        for structure in table.keys():
-            header.label(text=structure)
-        for key, title, show in render_stats.FIELDS:
-            column.separator()
-            column.label(text=title)
-            values = column.box().grid_flow(row_major=True, columns=len(table), even_columns=True)
-            for row in table.values():
-                values.label(text=show(row[key]))
+            text_fit.label(layout, context, f"{structure} {note}", icon='ERROR')
 
 
 CLASSES = (RAYLAB_OT_compare_structures, RAYLAB_PT_comparison)

@@ -1,7 +1,6 @@
 """The Levels panel in the 3D viewport's sidebar tab "raylab": the list of levels, the open level's
 title, goal, text with its diagrams, self-ticking tasks and the mesh swap with the mesh's credit."""
 import os
-import textwrap
 
 import bpy
 import bpy.utils.previews
@@ -10,7 +9,6 @@ from . import levels, text_fit
 
 _previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
 TASK_SECTIONS = []  # draw(layout, context) hooks drawn under the tasks, before the controls
-CHARACTER_WIDTH = 7.5  # pixels of an average sidebar character at UI scale 1, for wrapping
 
 
 def diagram_icon(path):
@@ -21,11 +19,6 @@ def diagram_icon(path):
         # Reading the size makes Blender load the picture now, not on a later redraw.
         _previews.load(path, path, 'IMAGE').image_size[:]
     return _previews[path].icon_id
-
-
-def wrapped(context, text, indent=0):
-    width = context.region.width / (CHARACTER_WIDTH * context.preferences.view.ui_scale)
-    return textwrap.wrap(text, max(16, int(width) - indent)) or [""]
 
 
 def current_level(context):

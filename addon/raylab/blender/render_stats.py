@@ -14,28 +14,82 @@ def human_count(n):
     return f"{int(n)}"
 
 
+def _short_number(value):
+    """Two or three digits: "0.04", "4.6", "5", "46", "460"."""
+    if value >= 9.95:
+        return f"{value:.0f}"
+    return f"{value:.1f}".removesuffix(".0") if value >= 0.995 else f"{value:.2g}"
+
+
+def _in_units(value, units):
+    """`value` in the first of `units` ((name, size, limit): the unit's size in the value's own, and the
+    number from which the next unit is used) where it reads under that unit's limit."""
+    for name, size, limit in units:
+        text = _short_number(value / size)
+        if limit is None or float(text) < limit:
+            return f"{text} {name}"
+
+
+def seconds_text(seconds):
+    """A duration, short and readable: "0.4 ms", "32 ms", "4.6 s", "46 s", "7.5 min", "2.7 h"."""
+    return _in_units(seconds, (("ms", 1e-3, 1000), ("s", 1.0, 60), ("min", 60.0, 60), ("h", 3600.0, None)))
+
+
+def bytes_text(n):
+    """A size in bytes, short: "512 B", "443 kB", "8.4 MB" (powers of 1000)."""
+    return _in_units(n, (("B", 1, 1000), ("kB", 1e3, 1000), ("MB", 1e6, 1000), ("GB", 1e9, None)))
+
+
 # The renderer's rays by kind; together they are the core's "rays" counter (every ray traced).
 RAY_KINDS = (("rays_primary", "Primary rays"), ("rays_shadow", "Shadow rays"),
              ("rays_reflection", "Reflection rays"), ("rays_refraction", "Refraction rays"))
 
 # (key, label, format) in the order they are shown: times, rays by kind, every core counter, memory.
-FIELDS = ((("build_seconds", "Build", lambda v: f"{1000 * v:.1f} ms"),
-           ("render_seconds", "Render", lambda v: f"{v:.2f} s"))
+FIELDS = ((("build_seconds", "Build", seconds_text),
+           ("render_seconds", "Render", seconds_text))
           + tuple((key, label, human_count) for key, label in RAY_KINDS)
           + tuple((name, info["label"], human_count) for name, info in api.COUNTER_INFO.items())
-          + (("memory_bytes", "Memory", lambda v: f"{v / 1024:.1f} KiB"),))
+          + (("memory_bytes", "Memory", bytes_text),))
 
 # What a stored record (scene["raylab_last_render"], a comparison row) keeps of a render's stats.
 KEYS = ("structure", "width", "height") + tuple(key for key, _, _ in FIELDS)
+
+# A record estimated from a sample render (the same view at a few hundred pixels) holds the sample's pixel
+# count under ESTIMATED_FROM. The sample builds the structure as the full render does, so its build time and
+# memory are the structure's own (STRUCTURE_KEYS, measured), and the primary rays scaled by the ratio of
+# pixels are the full image's exactly (its pixels times the samples per pixel); the render time and the
+# other counts are the sample's times that ratio: estimates, shown after ESTIMATE_MARK.
+ESTIMATED_FROM = "estimated_from"
+STRUCTURE_KEYS = ("build_seconds", "memory_bytes")
+MEASURED_IN_SAMPLE = STRUCTURE_KEYS + ("rays_primary",)
+ESTIMATE_MARK = "~"
 
 # ID properties hold 32-bit ints: larger counts are stored as floats.
 _ID_INT_MAX = 2 ** 31 - 1
 
 
+def scaled_to_image(sample, width, height):
+    """A sample render's stats as the estimate of the same render at width x height (ESTIMATED_FROM)."""
+    pixels = sample["width"] * sample["height"]
+    ratio = width * height / pixels
+    out = dict(sample, width=width, height=height, **{ESTIMATED_FROM: pixels})
+    for key, _, _ in FIELDS:
+        if key not in STRUCTURE_KEYS:
+            out[key] = sample[key] * ratio if key == "render_seconds" else round(sample[key] * ratio)
+    return out
+
+
+def estimate_note(record):
+    """The footnote of an estimated record's numbers."""
+    return (f"{ESTIMATE_MARK} estimated from a {record[ESTIMATED_FROM]}-pixel sample of the same view, scaled "
+            f"to {record['width']} x {record['height']} px; the values without {ESTIMATE_MARK} are measured")
+
+
 def record(stats, super_sampling):
-    """The render statistics as an ID-property dict (scene["raylab_last_render"])."""
+    """The render statistics as an ID-property dict (scene["raylab_last_render"], a comparison row);
+    an estimate (scaled_to_image) keeps its ESTIMATED_FROM."""
     out = {"super_sampling": super_sampling}
-    for key in KEYS:
+    for key in KEYS + ((ESTIMATED_FROM,) if ESTIMATED_FROM in stats else ()):
         value = stats[key]
         if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
             value = int(value) if abs(int(value)) <= _ID_INT_MAX else float(value)
@@ -50,14 +104,17 @@ def size_text(record):
 
 
 def rows(record):
-    """(label, text) for each field of a stored record, in FIELDS order (fields it lacks are left out)."""
-    return [(label, show(record[key])) for key, label, show in FIELDS if key in record]
+    """(label, text) for each field of a stored record, in FIELDS order (fields it lacks are left out);
+    an estimated record's estimated values start with ESTIMATE_MARK."""
+    estimated = ESTIMATED_FROM in record
+    return [(label, (ESTIMATE_MARK if estimated and key not in MEASURED_IN_SAMPLE else "") + show(record[key]))
+            for key, label, show in FIELDS if key in record]
 
 
 def line(stats):
     """The one-line summary under the rendered image."""
-    return (f"raylab {stats['structure']} | build {stats['build_seconds']:.3f} s | "
-            f"render {stats['render_seconds']:.2f} s | {human_count(stats['rays'])} rays | "
+    return (f"raylab {stats['structure']} | build {seconds_text(stats['build_seconds'])} | "
+            f"render {seconds_text(stats['render_seconds'])} | {human_count(stats['rays'])} rays | "
             f"{human_count(stats['triangle_tests'])} triangle tests")
 
 

@@ -9,7 +9,9 @@ a box's margins, the icon of a label, and the padding Blender keeps either side 
 import blf
 
 UNIT = 20.0             # UI_UNIT_X at UI scale 1
-PANEL_MARGIN = 2.3      # units: the tab strip, the region's edges and the panel's inner margins, together
+PANEL_MARGIN = 1.3      # units: the region's edges and the panel's inner margins, together
+TABS = 1.0              # units: a sidebar's category tabs (UI_PANEL_CATEGORY_MARGIN_WIDTH); taken in every
+                        # region: where there are none, text wraps a little early, never elided
 BOX_MARGIN = 0.4        # units a box (and each nested box) takes from the width
 ICON = 1.2              # units an icon (or its BLANK1 stand-in) takes
 TEXT_PADDING = 0.5      # units of padding Blender keeps around a label's text
@@ -40,12 +42,17 @@ def measure(text, pixels):
     return width if width > 0 or not text.strip() else 0.55 * pixels * len(text)
 
 
-def available(context, icon=False, boxes=0, columns=1, width=None):
-    """The pixels a label's text gets in the current region: its width less the panel's and the boxes'
-    margins, split into `columns`, less the icon and the text's padding."""
-    s = scale(context)
+def panel_width(context, width=None):
+    """The pixels a panel's layout gets in the current region (or a region `width` wide)."""
     region_width = width if width is not None else context.region.width
-    inner = (region_width - UNIT * s * (PANEL_MARGIN + BOX_MARGIN * boxes)) / max(1, columns)
+    return region_width - UNIT * scale(context) * (PANEL_MARGIN + TABS)
+
+
+def available(context, icon=False, boxes=0, columns=1, width=None):
+    """The pixels a label's text gets in the current region: the panel's width less the boxes' margins,
+    split into `columns`, less the icon and the text's padding."""
+    s = scale(context)
+    inner = (panel_width(context, width) - UNIT * s * BOX_MARGIN * boxes) / max(1, columns)
     return inner - UNIT * s * ((ICON if icon else 0.0) + TEXT_PADDING)
 
 
