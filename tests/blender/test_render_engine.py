@@ -162,3 +162,23 @@ def test_shade_smooth_renders_a_uv_sphere_without_facets(demo_scene):
     assert smooth_silhouette.sum() > 500
     assert np.array_equal(smooth_silhouette, flat_silhouette)   # the same triangles, only shaded smooth
     assert smooth_step < 0.35 * flat_step, (smooth_step, flat_step)
+
+
+def test_in_a_level_f12_renders_the_structure_the_viewport_shows():
+    """Issue 27, item 10: in BVH 2, switching the Structure panel to Octree left F12 on the BVH (a separate
+    render setting), and a student comparing the two was misled. In a level F12 follows the viewport."""
+    from raylab.blender import levels
+    before = bpy.context.window.scene
+    scene = levels.open_level(bpy.context, "bvh_2")
+    try:
+        scene.render.resolution_percentage = 10
+        scene.raylab.structure = "octree"
+        scene.raylab.max_depth_auto, scene.raylab.max_depth = False, 3
+        bpy.ops.render.render()
+        assert scene["raylab_last_render"]["structure"] == "octree"
+        assert render_engine.structure_settings(scene) == scene.raylab
+    finally:
+        bpy.context.window.scene = before
+        levels._remove_scene(scene)
+    # Outside a level Render Properties keep their own structure.
+    assert render_engine.structure_settings(before) == before.raylab_render

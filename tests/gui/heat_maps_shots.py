@@ -57,6 +57,7 @@ def picture_area():
 
 
 def open_level():
+    report["areas_before"] = areas_now()
     levels.open_level(bpy.context, LEVEL)
     show_sidebar()
 
@@ -113,7 +114,23 @@ def shoot():
     screenshot(os.path.join(OUT_DIR, "heat_maps_window.png"), window=window)
 
 
-STEPS = [open_level, click_raylab_tab, press_render_heat_maps, wait_for_the_job, fit_the_picture, shoot]
+def areas_now():
+    window = bpy.context.window_manager.windows[0]
+    return sorted([a.type, a.width, a.height] for a in window.screen.areas)
+
+
+def next_level():
+    """The student moves on: the Image Editor the heat maps opened closes with the level."""
+    report["areas_with_maps"] = areas_now()
+    window, area, region, _ = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.raylab.level_next() == {'FINISHED'}
+    report["areas_after_next"] = areas_now()
+    report["level_after_next"] = levels.state(bpy.context.window_manager.windows[0].scene)["id"]
+
+
+STEPS = [open_level, click_raylab_tab, press_render_heat_maps, wait_for_the_job, fit_the_picture, shoot,
+         next_level]
 
 
 def run():

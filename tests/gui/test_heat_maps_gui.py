@@ -106,3 +106,11 @@ def test_each_map_shows_its_structure_s_work(shots):
     assert (octree > 0.4).sum() > 20
     assert not np.allclose(crops["octree"], crops["none"], atol=0.1)
 
+
+
+def test_the_heat_maps_editor_closes_with_its_level(shots):
+    """Item 4 of issue 27: the Image Editor the heat maps split off the 3D viewport stayed over half of
+    the next levels' viewport, showing maps without their numbers."""
+    assert any(kind == 'IMAGE_EDITOR' for kind, _, _ in shots["areas_with_maps"])
+    assert shots["level_after_next"] != "where_work_goes"
+    assert shots["areas_after_next"] == shots["areas_before"], "the window's editors are not as they were"

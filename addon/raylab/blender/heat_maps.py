@@ -25,7 +25,7 @@ import bpy
 import numpy as np
 
 from .. import api
-from . import compare, image_files, preferences, text_fit
+from . import compare, image_files, levels, preferences, text_fit
 from .level_panels import TASK_SECTIONS
 from .scene_export import export_scene
 
@@ -121,6 +121,20 @@ def store_image(image_array):
     return image
 
 
+_split_areas = set()  # the Image Editors show_picture split off a 3D viewport (their as_pointer)
+
+
+def close_picture(window):
+    """Joins back the Image Editor show_picture split off, if it still shows the heat maps: leaving the level
+    closes it (its numbers belong to the level's scene). An editor the user had or changed stays."""
+    for area in list(window.screen.areas):
+        if area.as_pointer() in _split_areas and area.type == 'IMAGE_EDITOR' \
+                and getattr(area.spaces.active.image, "name", None) == IMAGE_NAME:
+            _split_areas.discard(area.as_pointer())
+            with bpy.context.temp_override(window=window, area=area):
+                bpy.ops.screen.area_close()
+
+
 def show_picture(context, image):
     """Shows the picture in the window's Image Editor (its numbers are written under the maps); without one,
     the bottom part of the largest 3D viewport becomes one, so the probe stays in view above the maps.
@@ -140,6 +154,7 @@ def show_picture(context, image):
         halves = [view] + [a for a in screen.areas if a.as_pointer() not in before]
         area = min(halves, key=lambda a: a.y)  # the lower half
         area.type = 'IMAGE_EDITOR'
+        _split_areas.add(area.as_pointer())
     area.spaces.active.image = image
     area.tag_redraw()
     return area
@@ -263,6 +278,7 @@ def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     TASK_SECTIONS.append(draw_numbers)
+    levels.LEAVING.append(close_picture)
     _handles.append(bpy.types.SpaceImageEditor.draw_handler_add(_draw_numbers_under_maps, (), 'WINDOW', 'POST_PIXEL'))
 
 
@@ -272,5 +288,7 @@ def unregister():
     _handles.clear()
     if draw_numbers in TASK_SECTIONS:
         TASK_SECTIONS.remove(draw_numbers)
+    if close_picture in levels.LEAVING:
+        levels.LEAVING.remove(close_picture)
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

@@ -5,18 +5,26 @@ import threading
 import bpy
 
 from .. import api
-from . import compat, cost_passes, properties, render_stats, viewport_panels
+from . import compat, cost_passes, levels, properties, render_stats, text_fit, viewport_panels
 from .scene_export import build_scene, export_scene, render_settings
 
 
+def structure_settings(scene):
+    """Where F12 takes its structure, depth and leaf size from: in a level, the viewport's Structure panel, so
+    what the student sees is what F12 measures (one setting); elsewhere Render Properties' own."""
+    return scene.raylab if levels.state(scene) is not None else scene.raylab_render
+
+
 def render_exported(exported, props, structure=None, super_sampling=None, progress=None,
-                    cost_rays=api.COST_RAYS[0]):
-    """Build the export with `structure` (default: the scene's) and render it; returns raylab's result.
+                    cost_rays=api.COST_RAYS[0], build=None):
+    """Build the export with `structure` (default: the one of `build`, the settings group the structure's
+    settings come from, by default `props`) and render it with `props`; returns raylab's result.
     cost_rays: which rays the result's per-pixel cost counts (api.COST_RAYS).
 
     Raises ExportError, ValueError (bad geometry or settings) or raylab.BuildError (memory budget)."""
-    scene, _ = build_scene(exported, structure=structure or props.structure,
-                           max_depth=properties.depth_setting(props), leaf_size=props.leaf_size)
+    build = build or props
+    scene, _ = build_scene(exported, structure=structure or build.structure,
+                           max_depth=properties.depth_setting(build), leaf_size=build.leaf_size)
     return api.render(scene, exported.camera, exported.lights, exported.materials,
                       render_settings(exported, props, super_sampling, cost_rays), progress=progress)
 
@@ -104,20 +112,22 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         scene = depsgraph.scene
         props = scene.raylab_render
+        build = structure_settings(scene)
         view_layer = depsgraph.view_layer
         passes = view_layer.raylab_passes
-        self.update_stats("", f"raylab {props.structure}: exporting the scene")
+        self.update_stats("", f"raylab {build.structure}: exporting the scene")
         try:
             exported = export_scene(depsgraph)
-            self.update_stats("", f"raylab {props.structure}: building and rendering")
-            result = render_exported(exported, props, progress=self._progress, cost_rays=passes.cost_rays)
+            self.update_stats("", f"raylab {build.structure}: building and rendering")
+            result = render_exported(exported, props, progress=self._progress, cost_rays=passes.cost_rays,
+                                     build=build)
         except (ValueError, api.BuildError) as error:
             self.report({'ERROR'}, f"raylab: {error}")
             self.update_stats("", f"raylab: {error}")
             return
         self._write_result(result, view_layer)
         if result.cancelled:
-            self.update_stats("", f"raylab {props.structure}: cancelled")
+            self.update_stats("", f"raylab {build.structure}: cancelled")
             return
         record = render_stats.record(result.stats, props.super_sampling)
         line = render_stats.line(result.stats)
@@ -168,7 +178,13 @@ class RAYLAB_PT_render_settings(RaylabRenderPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        viewport_panels.draw_structure_settings(layout, props)
+        build = structure_settings(context.scene)
+        if build != props:
+            text_fit.label(layout, context, f"In a level F12 renders with the 3D viewport's structure: "
+                                            f"{build.structure} (the sidebar's Structure panel)", 'INFO')
+        column = layout.column()
+        column.active = build == props
+        viewport_panels.draw_structure_settings(column, props)
         layout.separator()
         layout.prop(props, "super_sampling")
         layout.prop(props, "max_recursion")

@@ -183,6 +183,7 @@ def _frame_views(window, level):
         area.tag_redraw()
 
 
+LEAVING = []  # f(window) hooks: what a level's tools opened in a window (an editor) closes with the level
 KEPT_SUFFIX = " (your objects)"  # a left level scene that holds objects the user added
 
 
@@ -252,6 +253,8 @@ def open_level(context, level_id, root=None):
         raise
     windows = list(context.window_manager.windows)
     for window in windows:
+        for close in LEAVING:
+            close(window)
         window.scene = scene
         _frame_views(window, level)
     # Every other level scene goes (shown or not: none piles up); the user's scenes, copies included, stay.
