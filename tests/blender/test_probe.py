@@ -127,6 +127,17 @@ def test_no_ray_source_gives_no_status(torus_scene):
     assert "No ray object" in probe.status_text(scene)[0]
 
 
+def test_a_mesh_that_cannot_be_traced_is_named_where_the_probe_reports(torus_scene):
+    """Issue 27, item 11: a NaN vertex made the probe say "No mesh to probe"; F12 and Compare named the
+    vertex. The probe names the object and the vertex too."""
+    scene, torus, _ = torus_scene
+    torus.data.vertices[7].co = (float("nan"), 0.0, 0.0)
+    torus.data.update()
+    bpy.context.view_layer.update()
+    assert probe.evaluate_probe(scene)["status"] == ""
+    assert probe.status_text(scene) == [f"{torus.name}: vertex 7 has a NaN or infinite coordinate"]
+
+
 def test_a_large_fan_classifies_as_the_story_does(torus_scene):
     """A fan's rays get their statuses from one batch call; every ray must still get the status its
     own story gives."""

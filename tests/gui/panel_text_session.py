@@ -85,7 +85,8 @@ class Node:
     def prop(self, data, name, text=None, icon='NONE', expand=False, slider=False, **_):
         rna = data.bl_rna.properties[name]
         label = rna.name if text is None else text
-        kind = "prop_bool" if rna.type == 'BOOLEAN' and not self.use_property_split else "prop"
+        # A checkbox carries its text beside it, in the value's column when the row is split.
+        kind = "prop_bool" if rna.type == 'BOOLEAN' else "prop"
         if expand or not label:
             return
         node = self._text(kind, label, icon)
@@ -126,7 +127,8 @@ def overflowing(root, width, context):
         if node.text == "":
             return
         if node.text is not None:
-            share = room * SPLIT_LABEL if node.kind == "prop" and node.use_property_split else room
+            share = room if not node.use_property_split else \
+                room * SPLIT_LABEL if node.kind == "prop" else room * (1.0 - SPLIT_LABEL)
             icon = node.icon != 'NONE' or node.kind == "prop_bool"  # a checkbox takes an icon's room
             free = share - unit * ((text_fit.ICON if icon else 0.0) + text_fit.TEXT_PADDING)
             measured = text_fit.measure(node.text, pixels)

@@ -199,7 +199,7 @@ class RAYLAB_PT_render_stats(RaylabRenderPanel, bpy.types.Panel):
     bl_label = "raylab Last Render"
 
     def draw(self, context):
-        render_stats.draw_last(self.layout, context.scene)
+        render_stats.draw_last(self.layout, context)
 
 
 # Blender's own panels (format, output, lens, light, ...) that list BLENDER_RENDER, shown for raylab too.

@@ -5,6 +5,7 @@ No bpy import: draw() is handed a Blender layout."""
 import numpy as np
 
 from .. import api
+from . import text_fit
 
 
 def human_count(n):
@@ -122,22 +123,22 @@ LAST_RENDER = "raylab_last_render"  # the scene's ID property holding the last F
 HEAT_SCALE = "heat_scale"  # a record's heat pass scale in words, when the render made one
 
 
-def draw_last(layout, scene):
+def draw_last(layout, context):
     """The Last Render panels, in the Render Properties and in the viewport sidebar."""
-    record = scene.get(LAST_RENDER)
+    record = context.scene.get(LAST_RENDER)
     if record is None:
-        layout.label(text="No raylab render yet (F12 with the raylab engine)")
+        text_fit.label(layout, context, "No raylab render yet (F12 with the raylab engine)")
     else:
-        draw(layout, record)
+        draw(layout, context, record)
 
 
-def draw(layout, record):
+def draw(layout, context, record):
     """Label rows for one stored record."""
     column = layout.column(align=True)
-    column.label(text=f"{record['structure']}, {size_text(record)}")
+    text_fit.label(column, context, f"{record['structure']}, {size_text(record)}")
     for label, text in rows(record):
         split = column.split(factor=0.5)
         split.label(text=label)
         split.label(text=text)
     if HEAT_SCALE in record:
-        column.label(text=f"Heat: {record[HEAT_SCALE]}", icon='INFO')
+        text_fit.label(column, context, f"Heat: {record[HEAT_SCALE]}", 'INFO')

@@ -92,6 +92,7 @@ class SceneModel:
         self.world = structure == WORLD_ALIGNED
         self.parts = {}       # object name -> _Part
         self.shown = ([], [])  # the object names and matrix bytes last asked for
+        self.targets = []      # the objects last asked to be traced, those that cannot be too
         self.instances = []   # instance id -> object name
         self.stale = 0        # meshes added or replaced since the last commit
         self.refits = 0       # meshes refitted since the last commit
@@ -103,9 +104,10 @@ class SceneModel:
         return sum(self.parts[name].triangle_count for name in self.instances)
 
     def errors(self):
-        """Why shown objects are not traced, and why the last commit failed."""
-        shown = (self.parts[name] for name in self.shown[0])
-        return [f"{name}: {part.error or part.instance_error}" for name, part in zip(self.shown[0], shown)
+        """Why objects asked for are not traced (a NaN vertex, no faces, a singular matrix), and why the last
+        commit failed."""
+        asked = [(name, self.parts[name]) for name in self.targets if name in self.parts]
+        return [f"{name}: {part.error or part.instance_error}" for name, part in asked
                 if part.error or part.instance_error] + ([self.error] if self.error else [])
 
     def entry(self, name):
@@ -190,6 +192,7 @@ class SceneModel:
         is refitted (else rebuilt)."""
         changed = False
         names, matrices = [], []
+        self.targets = [obj.name_full for obj in targets]
         for obj in targets:
             matrix = matrix_of(obj)
             changed |= self._update_part(obj, _mesh_of(obj, depsgraph), matrix, refit)

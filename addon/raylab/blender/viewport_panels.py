@@ -112,7 +112,7 @@ class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
     bl_label = "Last render"
 
     def draw(self, context):
-        render_stats.draw_last(self.layout, context.scene)
+        render_stats.draw_last(self.layout, context)
 
 
 CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_cost, RAYLAB_PT_last_render)

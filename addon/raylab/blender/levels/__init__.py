@@ -19,7 +19,7 @@ from .state import MESH_OBJECT_NAME, OWNER_KEY, STATE_KEY, level_mesh_object, ow
 
 if "bpy" in sys.modules:
     from . import operators, tasks
-    from .meshes import (MESH_DIR, Z_UP_MESHES, mesh_credit, mesh_sources, normalised,  # noqa: F401
+    from .meshes import (GEOMETRY_TYPES, MESH_DIR, Z_UP_MESHES, mesh_credit, mesh_sources, normalised,  # noqa: F401
                          object_mesh_arrays, shipped_mesh_arrays, shipped_meshes)
     from .operators import (RAYLAB_OT_level_next, RAYLAB_OT_level_open, RAYLAB_OT_level_previous,  # noqa: F401
                             RAYLAB_OT_level_swap_mesh)

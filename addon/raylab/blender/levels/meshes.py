@@ -78,10 +78,14 @@ def object_mesh_arrays(obj):
             context.scene.collection.objects.unlink(obj)
 
 
+# Objects whose evaluated geometry is a mesh (to_mesh): meshes, curves, surfaces, texts, metaballs.
+GEOMETRY_TYPES = ('MESH', 'CURVE', 'SURFACE', 'FONT', 'META')
+
+
 def mesh_sources(scene):
     """Everything the level's mesh can be swapped for: ("file:NAME", ...) and ("object:NAME", ...)."""
     level_obj = level_mesh_object(scene)
     items = [f"file:{name}" for name in shipped_meshes()]
-    items += [f"object:{o.name}" for o in bpy.data.objects if o.type == 'MESH' and o != level_obj
+    items += [f"object:{o.name}" for o in bpy.data.objects if o.type in GEOMETRY_TYPES and o != level_obj
               and o.get("raylab_mesh_source") is None]
     return items

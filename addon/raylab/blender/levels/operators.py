@@ -72,7 +72,7 @@ _source_items = []  # Blender needs Python to keep dynamic enum strings alive
 
 def _mesh_items(_self, context):
     _source_items[:] = [(source, source.partition(":")[2],
-                         ("Shipped mesh " if source.startswith("file:") else "Your mesh object ")
+                         ("Shipped mesh " if source.startswith("file:") else "Your object ")
                          + source.partition(":")[2]) for source in mesh_sources(context.scene)]
     return _source_items
 

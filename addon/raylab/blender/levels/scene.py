@@ -11,7 +11,7 @@ from mathutils import Matrix, Vector
 
 from .. import compat
 from ..mesh_data import mesh_from_arrays, principled_material
-from .meshes import mesh_credit, normalised, object_mesh_arrays, shipped_mesh_arrays
+from .meshes import GEOMETRY_TYPES, mesh_credit, normalised, object_mesh_arrays, shipped_mesh_arrays
 from .reading import LevelError, available_levels, find_level
 from .state import MESH_OBJECT_NAME, OWNER_KEY, STATE_KEY, level_mesh_object, owned, state
 from .tasks import _take_snapshots, check_tasks
@@ -290,12 +290,16 @@ def swap_mesh(scene, source):
     object's ("object:Suzanne"); the object, its place and every setting stay."""
     obj = level_mesh_object(scene)
     if obj is None:
-        raise LevelError("the scene is not a level (open one first)")
+        raise LevelError("the scene is not a level (open one first)" if state(scene) is None else
+                         "the level's mesh was deleted: undo the delete, or open the level again")
     kind, _, name = source.partition(":")
     if kind == "file":
         arrays, credit = shipped_mesh_arrays(name), mesh_credit(name)
-    elif kind == "object" and name in bpy.data.objects and bpy.data.objects[name].type == 'MESH':
+    elif kind == "object" and name in bpy.data.objects and bpy.data.objects[name].type in GEOMETRY_TYPES:
         arrays, credit = object_mesh_arrays(bpy.data.objects[name]), f"{name}: your own mesh"
+    elif kind == "object" and name in bpy.data.objects:
+        raise LevelError(f"cannot swap in {name}: it is a {bpy.data.objects[name].type.lower()} object, with no "
+                         f"surface to trace (a mesh, curve, surface or text object has one)")
     else:
         raise LevelError(f"cannot swap in {source!r}: expected file:<shipped .obj> or object:<mesh object>")
     _set_mesh(obj, *arrays, MESH_SIZE * state(scene)["scene_scale"], source.partition(":")[2], credit)
