@@ -69,6 +69,31 @@ def test_every_colour_word_of_a_level_text_is_checked(path):
     assert sorted(said) == sorted(checked), f"{path} names colours {said}; CLAIMS checks {checked}"
 
 
+# (text, structure whose statuses it teaches): each status the text names in bold reads in the probe's
+# words for that structure.
+STATUS_TEXTS = [("levels/aabb_2/text.md", "aabb"), ("levels/octree_2/text.md", "octree")]
+
+
+@pytest.mark.parametrize("path, structure", STATUS_TEXTS)
+def test_the_probe_says_what_the_tutorial_says(path, structure):
+    """Issue 27, item 12: AABB 2's text says "Box hit, object missed" where the probe said "Entered nodes
+    with triangles, hit none"; Octree 2 says "misses the root cube" where it said "missed every object's
+    box". Every bold status of the text opens one of the probe's sentences for the structure, and the
+    sentence's words after the status are the text's words."""
+    words = probe.BOX_WORDS if structure == "aabb" else probe.STATUS_WORDS
+    text = read(path)
+    named = re.findall(r"- \*\*([^*]+)\*\*(?: \(\w+\))?: (.+?)(?= - \*\*|$)", text)
+    assert len(named) >= 3, named
+    root = properties.api.STRUCTURE_INFO[structure]["root_name"]
+    for status, meaning in named:
+        sentences = [w.format(root=root) for w in words.values() if w.startswith(status)]
+        assert sentences, f"{path}: the probe never says {status!r}"
+        said = sentences[0].split(": ", 1)[1]
+        # The probe's sentence is the text's, shortened: its first five words are the text's.
+        first = " ".join(said.replace(",", "").split()[:5]).lower()
+        assert first in meaning.replace(",", "").lower(), f"{path}: {status} means {meaning!r}; the probe says {said!r}"
+
+
 def test_compare_structures_is_where_the_texts_say():
     """The comparison's panel is in the 3D viewport's sidebar, not in the render settings."""
     panel = compare.RAYLAB_PT_comparison

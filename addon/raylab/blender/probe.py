@@ -45,21 +45,35 @@ def aim_matrix(origin, direction):
     return Matrix.Translation(origin) @ Vector(direction).to_track_quat('Z', 'Y').to_matrix().to_4x4()
 
 
+# What the probe says of a ray, in the words the levels' tutorials use (tests/blender/test_level_texts.py
+# reads both): a tree's four statuses by name (Octree 2, BVH 2), then what each means for the structure
+# shown; an AABB's three cases as AABB 2 names them (one box, no inner nodes: what a tree calls
+# missed_nodes or missed_triangles is "box hit, object missed").
+STATUS_WORDS = {
+    "missed_root": "missed_root: the ray misses {root}, it is ignored",
+    "missed_root_top": "missed_root: the ray misses every object's box, before {root}: ignored",
+    "missed_nodes": "missed_nodes: it enters the root but only crosses empty space",
+    "missed_triangles": "missed_triangles: it crosses boxes with triangles, tests them, and hits none",
+    "hit_object": "hit_object: it hits a triangle",
+}
+BOX_WORDS = {
+    "missed_root": "Ignored (missed_root): the ray misses the box",
+    "missed_nodes": "Box hit, object missed: the ray enters the box but passes the object",
+    "missed_triangles": "Box hit, object missed: the ray enters the box but passes the object",
+    "hit_object": "Object hit: the ray hits a triangle",
+}
+
+
 def status_message(story, structure):
     """The first line of the probe's text: what happened to the ray (a SceneStory)."""
     status = story.status
-    if status == "missed_root":
-        top = story.top_boxes["hit"]
-        if len(top) and not top.any():  # the scene's top level culled it before any structure saw it
-            return "Ray ignored: missed every object's box (the scene's top level)"
-        return f"Ray ignored: missed {api.STRUCTURE_INFO[structure]['root_name']}"
-    if status == "missed_nodes":
-        return "Hit the box, missed the object (no node with triangles entered)"
-    if status == "missed_triangles":
-        return "Entered nodes with triangles, hit none"
-    if status == "hit_object":
-        return "Hit the object"
-    return ""
+    if status not in STATUS_WORDS:
+        return ""
+    if structure == "aabb":
+        return BOX_WORDS[status]
+    if status == "missed_root" and len(story.top_boxes["hit"]) and not story.top_boxes["hit"].any():
+        status = "missed_root_top"  # the scene's top level culled it before any structure saw it
+    return STATUS_WORDS[status].format(root=api.STRUCTURE_INFO[structure]["root_name"])
 
 
 # --- rays ------------------------------------------------------------------------------------------
