@@ -64,6 +64,9 @@ def test_a_camera_is_refused_with_a_reason(level):
     assert "object:user camera" not in levels.mesh_sources(scene)
     with pytest.raises(levels.LevelError, match="camera object, with no surface to trace"):
         levels.swap_mesh(scene, "object:user camera")
+    # From a script, the operator reports raylab's sentence (it was Blender's enum TypeError).
+    with pytest.raises(RuntimeError, match="camera object, with no surface to trace"):
+        bpy.ops.raylab.level_swap_mesh(source="object:user camera")
 
 
 def test_swap_mesh_after_the_level_mesh_was_deleted_says_so(level):

@@ -148,8 +148,7 @@ class RAYLAB_PT_level_mesh(_OpenLevelPanel, bpy.types.Panel):
         text_fit.label(layout, context, f"{obj.get('raylab_mesh_source', '?')}: {len(obj.data.polygons):,} triangles",
                        'MESH_DATA')
         text_fit.label(layout, context, "Credit: " + obj.get("raylab_credit", ""))
-        layout.operator_menu_enum(levels.RAYLAB_OT_level_swap_mesh.bl_idname, "source", text="Swap mesh",
-                                  icon='FILE_REFRESH')
+        layout.menu(levels.RAYLAB_MT_level_swap_mesh.bl_idname, text="Swap mesh", icon='FILE_REFRESH')
 
 
 class RAYLAB_PT_level_list(_OpenLevelPanel, bpy.types.Panel):

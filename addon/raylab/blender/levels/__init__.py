@@ -21,8 +21,8 @@ if "bpy" in sys.modules:
     from . import operators, tasks
     from .meshes import (GEOMETRY_TYPES, MESH_DIR, Z_UP_MESHES, mesh_credit, mesh_sources, normalised,  # noqa: F401
                          object_mesh_arrays, shipped_mesh_arrays, shipped_meshes)
-    from .operators import (RAYLAB_OT_level_next, RAYLAB_OT_level_open, RAYLAB_OT_level_previous,  # noqa: F401
-                            RAYLAB_OT_level_swap_mesh)
+    from .operators import (RAYLAB_MT_level_swap_mesh, RAYLAB_OT_level_next, RAYLAB_OT_level_open,  # noqa: F401
+                            RAYLAB_OT_level_previous, RAYLAB_OT_level_swap_mesh)
     from .scene import KEPT_SUFFIX, LEAVING, MESH_SIZE, _remove_scene, open_level, step_level, swap_mesh  # noqa: F401
     from .tasks import CHECK_INTERVAL, _check_timer, check_tasks, evaluate_condition, task_list  # noqa: F401
 

@@ -67,29 +67,38 @@ class RAYLAB_OT_level_previous(_LevelStep, bpy.types.Operator):
     DELTA = -1
 
 
-_source_items = []  # Blender needs Python to keep dynamic enum strings alive
+def source_label(source):
+    """How a swap source reads in the menu: "bunny.obj" for a shipped mesh, the object's name for the user's."""
+    return source.partition(":")[2]
 
 
-def _mesh_items(_self, context):
-    _source_items[:] = [(source, source.partition(":")[2],
-                         ("Shipped mesh " if source.startswith("file:") else "Your object ")
-                         + source.partition(":")[2]) for source in mesh_sources(context.scene)]
-    return _source_items
+class RAYLAB_MT_level_swap_mesh(bpy.types.Menu):
+    """The shipped meshes and the user's objects with a surface, each a Swap Mesh button."""
+    bl_label = "Swap Mesh"
+    bl_idname = "RAYLAB_MT_level_swap_mesh"
+
+    def draw(self, context):
+        column = self.layout.column()
+        for source in mesh_sources(context.scene):
+            icon = 'FILE_3D' if source.startswith("file:") else 'OBJECT_DATA'
+            column.operator(RAYLAB_OT_level_swap_mesh.bl_idname, text=source_label(source), icon=icon).source = source
 
 
 class RAYLAB_OT_level_swap_mesh(bpy.types.Operator):
-    """Swap the level's mesh for a shipped mesh or one of your mesh objects; settings stay"""
+    """Swap the level's mesh for a shipped mesh or one of your objects (a mesh, curve, surface or text); settings stay"""
     bl_idname = "raylab.level_swap_mesh"
     bl_label = "Swap Mesh"
     bl_options = {'REGISTER', 'UNDO'}
-    bl_property = "source"
 
-    source: bpy.props.EnumProperty(name="Mesh", items=_mesh_items,
-                                   description="A shipped mesh or one of your mesh objects (with its modifiers)")
+    # A string, not an enum: a script's wrong source gets raylab's sentence, not Blender's enum TypeError.
+    source: bpy.props.StringProperty(name="Mesh", description="file:<a shipped .obj> or object:<one of your "
+                                                               "objects> (with its modifiers)")
 
     def invoke(self, context, event):
-        context.window_manager.invoke_search_popup(self)
-        return {'RUNNING_MODAL'}
+        if self.source:
+            return self.execute(context)
+        bpy.ops.wm.call_menu(name=RAYLAB_MT_level_swap_mesh.bl_idname)  # from F3: pick from the menu
+        return {'CANCELLED'}
 
     def execute(self, context):
         try:
@@ -100,7 +109,8 @@ class RAYLAB_OT_level_swap_mesh(bpy.types.Operator):
         return {'FINISHED'}
 
 
-CLASSES = (RAYLAB_OT_level_open, RAYLAB_OT_level_next, RAYLAB_OT_level_previous, RAYLAB_OT_level_swap_mesh)
+CLASSES = (RAYLAB_OT_level_open, RAYLAB_OT_level_next, RAYLAB_OT_level_previous, RAYLAB_OT_level_swap_mesh,
+           RAYLAB_MT_level_swap_mesh)
 
 
 def register():
