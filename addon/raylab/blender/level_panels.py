@@ -44,10 +44,12 @@ def _level_buttons(layout, context, current):
         text_fit.label(layout, context, str(error), 'ERROR')
         return
     column = layout.column(align=True)
+    # A button cannot wrap: when a title is too long for its button, every button shows the level's name
+    # alone, the part of its title before the colon.
+    whole = all(text_fit.fits(context, item.title, icon=True) for item in all_levels)
     for item in all_levels:
         is_current = current is not None and item.id == current.id
-        # A button cannot wrap: a title too long for it shows its name, the part before the colon.
-        title = item.title if text_fit.fits(context, item.title, icon=True) else item.title.partition(":")[0]
+        title = item.title if whole else item.title.partition(":")[0]
         op = column.operator(levels.RAYLAB_OT_level_open.bl_idname, text=title, depress=is_current,
                              icon='CHECKMARK' if is_current else 'PLAY')
         op.level_id = item.id
