@@ -190,14 +190,15 @@ KEPT_SUFFIX = " (your objects)"  # a left level scene that holds objects the use
 def _remove_scene(scene):
     """Leaves a level's scene: removes what the level made (its objects, their data, its world) and nothing
     else. Objects the user added stay where they are: the scene is then kept as theirs, no longer a level."""
-    st = state(scene)
-    for obj in [o for o in scene.objects if owned(o, st) and len(o.users_scene) == 1]:
+    # The token as a Python str: the state is freed with the scene, and reading it after that crashed 5.2.
+    token = state(scene).get("token")
+    for obj in [o for o in scene.objects if owned(o, token) and len(o.users_scene) == 1]:
         data, materials = obj.data, list(getattr(obj.data, "materials", ()))
         bpy.data.objects.remove(obj)
-        if owned(data, st) and data.users == 0 and _data_collection(data) is not None:
+        if owned(data, token) and data.users == 0 and _data_collection(data) is not None:
             _data_collection(data).remove(data)
         for material in materials:
-            if owned(material, st) and material.users == 0:
+            if owned(material, token) and material.users == 0:
                 bpy.data.materials.remove(material)
     # What the user added lives only here (an object of theirs linked in from their scene stays there).
     users = [o for o in scene.objects if len(o.users_scene) == 1] + list(scene.collection.children)
@@ -207,7 +208,7 @@ def _remove_scene(scene):
         return scene
     world = scene.world
     bpy.data.scenes.remove(scene)
-    if owned(world, st) and world.users == 0:
+    if owned(world, token) and world.users == 0:
         bpy.data.worlds.remove(world)
     return None
 

@@ -34,9 +34,9 @@ def state(scene):
     return None if st is None or is_copy(scene) else st
 
 
-def owned(id_data, st):
-    """True if the ID was made by the level whose state is `st`."""
-    return st is not None and id_data is not None and id_data.get(OWNER_KEY) == st.get("token")
+def owned(id_data, token):
+    """True if the ID was made by the level whose token (state["token"]) is `token`."""
+    return token is not None and id_data is not None and id_data.get(OWNER_KEY) == token
 
 
 def level_mesh_object(scene):
