@@ -28,15 +28,17 @@ def draw_structure_settings(layout, props):
     leaf.prop(props, "leaf_size")
 
 
-def labelled(layout, props, name):
-    """A property with its label, half and half: Blender's split (40 % for the label) cut "On animation"
-    and "Line colour" to "On ani…" and "Line col…" at the sidebar's default width."""
-    split = layout.split(factor=0.5, align=True)
+def labelled(layout, props, name, factor=0.5):
+    """A property with its label, the label taking `factor` of the width: Blender's split (40 % for the
+    label) cut "On animation" and "Line colour" to "On ani…" and "Line col…" at the sidebar's default
+    width. Returns the row holding the value."""
+    split = layout.split(factor=factor, align=True)
     label = split.row()
     label.alignment = 'RIGHT'
     label.label(text=props.bl_rna.properties[name].name)
-    split.prop(props, name, text="")
-    return split
+    value = split.row(align=True)
+    value.prop(props, name, text="")
+    return value
 
 
 class _RaylabPanel:
@@ -160,16 +162,22 @@ class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
         settings = context.scene.raylab
         layout = self.layout
         layout.use_property_split = True
-        layout.prop(settings, "probe_source", expand=True)
-        if settings.probe_source == 'OBJECT':
-            row = layout.row(align=True)
-            row.prop(settings, "probe_object")
+        source = layout.row()
+        source.use_property_split = False  # "Object" and "Camera" at full width (split: "Cam…")
+        source.prop(settings, "probe_source", expand=True)
+        if settings.probe_source == 'OBJECT':  # the field at full width, under its label (split: "ra")
+            column = layout.column(align=True)
+            column.label(text=settings.bl_rna.properties["probe_object"].name)
+            row = column.row(align=True)
+            row.prop(settings, "probe_object", text="")
             row.operator("raylab.probe_add", text="", icon='ADD')
         else:
             column = layout.column(align=True)
             column.prop(settings, "probe_pixel_x")
             column.prop(settings, "probe_pixel_y")
-        layout.prop(settings, "probe_length")
+        length = layout.column()
+        length.use_property_split = False  # the label inside the field: "Ray length 20 m"
+        length.prop(settings, "probe_length")
         row = layout.row(align=True)
         row.prop(settings, "fan_enabled")
         sub = row.row()
@@ -192,11 +200,11 @@ class RAYLAB_PT_cost(_RaylabPanel, bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.raylab
         layout = self.layout
-        layout.use_property_split = True
         layout.active = settings.cost_enabled
-        layout.prop(settings, "cost_counter")
-        layout.prop(settings, "cost_maximum")
-        layout.prop(settings, "cost_cells")
+        labelled(layout, settings, "cost_counter", factor=0.35)  # "Triangle tests" needs the room
+        column = layout.column(align=True)  # the labels inside the fields: "Scale maximum 64"
+        column.prop(settings, "cost_maximum")
+        column.prop(settings, "cost_cells")
 
 
 class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
