@@ -1,12 +1,14 @@
 """The 3D viewport sidebar tab "raylab": Structure, Probe, Cost heat map and Last render panels.
 
-Every text is drawn with text_fit.label, wrapped to the sidebar's width (Blender would elide it). The
-Structure panel keys the colours by depth (overlay.DEPTH_PALETTE, drawn as icons) and ranks the shown
-objects by their share of the triangle tests of the camera's rays (cost_overlay.object_costs): the
-costliest TOP_OBJECTS, then how many more.
+The Structure, Probe and Cost panels draw their text with text_fit.label, wrapped to the sidebar's width
+(Blender would elide it; the Last render panel's text is render_stats'). The Structure panel keys the
+colours by depth (overlay.DEPTH_PALETTE, drawn as icons) and ranks the shown objects by their share of
+the triangle tests of the camera's rays (cost_overlay.object_costs): the costliest TOP_OBJECTS, then how
+many more.
 """
 import bpy
 
+from .. import api
 from . import cost_overlay, overlay, probe, properties, render_stats, structure_cache, text_fit
 
 TOP_OBJECTS = 5      # objects listed by name in the ranking
@@ -127,7 +129,8 @@ def object_lines(context):
         return lines + [(f"Costliest objects: {why_not}", 'INFO')]
     ranked = [(name, share) for name, _, share in costs.ranked() if name in built]
     sample = "" if costs.told == costs.rays else f" ({costs.told:,} of them told apart)"
-    lines.append((f"Costliest objects, by their share of the triangle tests of {costs.rays:,} rays from the "
+    counted = api.COUNTER_INFO[cost_overlay.RANK_COUNTER]["label"].lower()
+    lines.append((f"Costliest objects, by their share of the {counted} of {costs.rays:,} rays from the "
                   f"camera{sample}:", 'SORTSIZE'))
     lines += [(f"{share_text(share)} {name}: {structure_text(built[name])}", 'NONE')
               for name, share in ranked[:TOP_OBJECTS]]
