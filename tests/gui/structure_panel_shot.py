@@ -125,7 +125,8 @@ def shot_key():
 def shot_probe():
     screenshot(STEM + "_probe.png")
     report.update(probe_lines=[list(entry) for entry in text_fit.RECORD],
-                  probe_text=list(probe.last_status_text(bpy.context.scene)))
+                  probe_text=list(probe.last_status_text(bpy.context.scene)),
+                  probe_status=probe.evaluate_probe(bpy.context.scene)["status"])
     text_fit.RECORD = None
 
 

@@ -35,6 +35,7 @@ def labelled(layout, props, name, factor=0.5):
     label) cut "On animation" and "Line colour" to "On ani…" and "Line col…" at the sidebar's default
     width. Returns the row holding the value."""
     split = layout.split(factor=factor, align=True)
+    split.use_property_split = False  # this split is the property's own
     label = split.row()
     label.alignment = 'RIGHT'
     label.label(text=props.bl_rna.properties[name].name)
@@ -83,7 +84,7 @@ def draw_depth_key(layout, context):
     """The colours by depth as a key: each depth drawn, its colour and its number, as many a row as fit."""
     settings = context.scene.raylab
     key = overlay.depth_key(settings, overlay.drawn_depths(context.scene, context.view_layer))
-    box = layout.box()
+    box = text_box(layout)
     if not key:
         text_fit.label(box, context, "Depth colours: no box drawn yet", boxes=1)
         return
@@ -151,8 +152,19 @@ def structure_text(entry):
 
 
 def draw_objects(layout, context):
-    for text, icon in object_lines(context):
-        text_fit.label(layout, context, text, icon=icon)
+    column = layout.column()
+    column.use_property_split = False  # texts at the panel's full width (a label is never split)
+    for i, (text, icon) in enumerate(object_lines(context)):
+        if i:
+            column.separator(factor=0.5)  # where one object's wrapped lines end
+        text_fit.label(column, context, text, icon=icon)
+
+
+def text_box(layout):
+    """A box of texts at its full width, in a panel whose properties are split."""
+    box = layout.box()
+    box.use_property_split = False
+    return box
 
 
 class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
@@ -182,12 +194,13 @@ class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
         length.use_property_split = False  # the label inside the field: "Ray length 20 m"
         length.prop(settings, "probe_length")
         row = layout.row(align=True)
+        row.use_property_split = False  # "Fan" beside its checkbox, N beside it: no split column
         row.prop(settings, "fan_enabled")
         sub = row.row()
         sub.active = settings.fan_enabled
         sub.prop(settings, "fan_size", text="N")
         if settings.probe_enabled:
-            box = layout.box()
+            box = text_box(layout)
             for line in probe.last_status_text(context.scene):
                 for part in line.split(", "):  # one count per row, each wrapped to the sidebar
                     text_fit.label(box, context, part, boxes=1)
