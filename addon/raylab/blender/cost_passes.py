@@ -67,13 +67,13 @@ def _annotations():
         items=[(name, info["label"], info["description"]) for name, info in api.COST_PASS_INFO.items()],
         description="The count the heat pass shows")
     fields["heat_maximum_auto"] = BoolProperty(
-        name="Automatic Maximum", default=True,
+        name="Auto Maximum", default=True,
         description=f"Each render's top colour is the {AUTO_PERCENTILE}th percentile of its pixels that did "
                     "any work, rounded up (the render states it); off: Heat Maximum, one fixed scale")
     fields["heat_maximum"] = FloatProperty(
         name="Heat Maximum", default=100.0, min=1e-3, soft_max=1e6, update=_maximum_set,
         description="The count shown in the top colour (and anything above it): renders on the same maximum "
-                    "compare colour for colour, whatever their structure. Setting it turns Automatic off")
+                    "compare colour for colour, whatever their structure. Setting it turns Auto Maximum off")
     fields["heat_legend"] = BoolProperty(
         name="Legend in Image", default=True,
         description="Draw the colour bar with its numbers (0, the middle, the maximum) over the heat pass's "
@@ -207,8 +207,10 @@ class RAYLAB_PT_view_layer_passes(bpy.types.Panel):
         heat = layout.column()
         heat.active = props.use_heat
         heat.prop(props, "heat_pass")
-        heat.prop(props, "heat_maximum_auto")
-        maximum = heat.row()
+        scale = heat.column(align=True)
+        scale.use_property_split = False  # labels beside their checkbox, inside their field: none cut short
+        scale.prop(props, "heat_maximum_auto")
+        maximum = scale.row()
         maximum.active = not props.heat_maximum_auto
         maximum.prop(props, "heat_maximum")
         heat.prop(props, "heat_legend")
