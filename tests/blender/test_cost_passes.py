@@ -230,3 +230,66 @@ def test_the_heat_pass_keeps_its_colours_in_the_files_working_space(demo_scene, 
     finally:
         if colorspace is not None and compat.working_space() != "Linear Rec.709":
             bpy.ops.wm.set_working_color_space(working_space="Linear Rec.709", convert_colors=False)
+
+
+@pytest.fixture
+def level_scene():
+    """A level's scene as a student opens it (a new scene: its View Layer's raylab passes at their
+    defaults), rendered with raylab; removed afterwards."""
+    from raylab.blender import levels
+    before = bpy.context.window.scene
+    scene = levels.open_level(bpy.context, "where_work_goes")
+    scene.render.engine = 'RAYLAB'
+    yield scene
+    bpy.context.window.scene = before
+    levels._remove_scene(scene)
+
+
+def test_the_heat_pass_by_default_shows_the_scenes_triangle_tests_in_a_spread_of_colours(level_scene):
+    """Issue 27: ticking Heat alone used to give a black picture (rays per pixel, one or two, on 0-100)."""
+    passes = level_scene.view_layers[0].raylab_passes
+    passes.use_heat = True  # the one thing the student does
+    triangles = raylab.COST_PASS_INFO[passes.heat_pass]
+    assert triangles["counter"] == "triangle_tests"
+    setattr(passes, cost_passes.use_property(passes.heat_pass), True)  # the counts, to check the colours by
+    channels = render_exr(level_scene)
+    layer = level_scene.view_layers[0].name
+    counts = channels[f"{layer}.{passes.heat_pass}.{cost_passes.CHANNEL_ID}"]
+    heat = heat_channels(level_scene, channels)
+    height = heat.shape[0] - len(raylab.heat_legend(1.0, width=heat.shape[1]))  # the legend's rows
+    picture, counts = heat[:height, :, :3], counts[:height]
+    working = counts > 0
+    assert working.mean() > 0.1, "the level's meshes cover part of the picture"
+    # Not black: the pixels that did work are drawn across the colour map (as the display shows them), the
+    # hardest near its top. Rays on 0-100, the old default, left them all under 0.08.
+    brightness = (picture.max(axis=2)[working]) ** (1 / 2.2)
+    assert np.median(brightness) > 0.2 and np.percentile(brightness, 95) > 0.8
+    assert len(np.unique(np.round(picture[working], 3), axis=0)) > 30, "a spread of colours, not a silhouette"
+    # The scale is stated, names the triangle tests and is the one the colours were drawn on.
+    maximum = cost_passes.automatic_maximum(counts)
+    assert 1 < maximum < counts.max() * 1.5
+    assert np.array_equal(heat[:height], raylab.heat_map(counts, maximum)[:height])
+    scale = level_scene["raylab_last_render"]["heat_scale"]
+    assert scale.startswith(raylab.heat_scale_text("Triangle tests", maximum)) and "automatic" in scale
+
+
+def test_a_maximum_the_user_sets_is_kept(demo_scene):
+    passes = demo_scene.view_layers[0].raylab_passes
+    passes.heat_maximum_auto = True
+    passes.heat_maximum = 250.0  # typed into the panel
+    assert not passes.heat_maximum_auto
+    enable_heat(demo_scene, passes.heat_pass, 250.0, legend=False)
+    heat = heat_channels(demo_scene, render_exr(demo_scene))
+    assert np.array_equal(heat, raylab.heat_map(api_counts(demo_scene)["triangle_tests"], 250.0))
+    assert demo_scene["raylab_last_render"]["heat_scale"] == raylab.heat_scale_text("Triangle tests", 250.0)
+
+
+def test_the_automatic_maximum_is_a_round_number_over_nearly_every_working_pixel():
+    counts = np.zeros((50, 40), np.float32)
+    counts[10:30, 5:35] = np.arange(600).reshape(20, 30) % 73 + 1  # 1 to 73 spread out
+    counts[0, 0] = 5000  # one hot pixel does not set the scale
+    maximum = cost_passes.automatic_maximum(counts)
+    assert maximum == 80
+    assert (counts[counts > 0] <= maximum).mean() >= cost_passes.AUTO_PERCENTILE / 100
+    assert cost_passes.automatic_maximum(np.zeros((4, 4))) == 1.0
+    assert [cost_passes.round_up(v) for v in (0.3, 1, 7, 12, 101, 2600)] == [0.3, 1, 8, 15, 150, 3000]

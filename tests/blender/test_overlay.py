@@ -129,6 +129,44 @@ def test_filters_pick_depths_and_leaves(monkey_scene):
     settings.probe_enabled = False
 
 
+def test_the_cost_heat_map_reads_over_the_boxes(monkey_scene):
+    """Issue 27: with the heat map on, its cells were buried under the green boxes: the boxes stay, faint."""
+    scene, monkey = monkey_scene
+    settings = scene.raylab
+    settings.structure, settings.fade = "octree", False
+    assert np.all(overlay.line_geometry(monkey, scene).colors[:, 3] == 1.0)
+    settings.cost_enabled = True
+    try:
+        alpha = overlay.line_geometry(monkey, scene).colors[:, 3]
+        assert np.allclose(alpha, overlay.COST_DIM) and overlay.COST_DIM < overlay.PROBE_DIM
+        settings.probe_enabled = True  # the heat map is the fainter of the two
+        assert np.allclose(overlay.line_geometry(monkey, scene).colors[:, 3], overlay.COST_DIM)
+    finally:
+        settings.cost_enabled = settings.probe_enabled = False
+
+
+def test_the_depth_key_lists_every_depth_drawn_in_its_boxes_colour(monkey_scene):
+    scene, monkey = monkey_scene
+    settings = scene.raylab
+    settings.structure, settings.max_depth, settings.color_by_depth, settings.fade = "octree", 4, True, False
+    geometry = overlay.line_geometry(monkey, scene)
+    boxes = structure_cache.structure_for(monkey, settings).boxes()
+    key = overlay.depth_key(settings, overlay.drawn_depths(scene))
+    assert [depth for depth, _ in key] == [0, 1, 2, 3, 4]
+    for depth, colour in key:  # the colour the boxes of that depth are drawn in
+        drawn = geometry.colors[::8][boxes["depth"] == depth]
+        np.testing.assert_allclose(drawn, np.broadcast_to(colour, drawn.shape))
+    settings.depth_min, settings.depth_max = 2, 3
+    assert [depth for depth, _ in overlay.depth_key(settings, overlay.drawn_depths(scene))] == [2, 3]
+    settings.depth_min, settings.depth_max, settings.leaves_only = 0, 64, True
+    leaf_depths = sorted(set(boxes["depth"][boxes["leaf"]].tolist()))
+    assert [depth for depth, _ in overlay.depth_key(settings, overlay.drawn_depths(scene))] == leaf_depths
+    # deeper than the palette: the colours repeat, and the key says which depth has which
+    deep = overlay.depth_key(settings, range(len(overlay.DEPTH_PALETTE) + 2))
+    np.testing.assert_allclose(deep[len(overlay.DEPTH_PALETTE)][1][:3], overlay.DEPTH_PALETTE[0])
+    settings.leaves_only = settings.color_by_depth = False
+
+
 def test_selected_objects_only(monkey_scene):
     scene, monkey = monkey_scene
     bpy.ops.mesh.primitive_cube_add(location=(4.0, 0.0, 0.0))

@@ -140,3 +140,100 @@ def test_overlay_and_probe_in_the_viewport(structure, empty_blend):
     check_boxes_drawn(report, off)
     check_status_text(report, off, on)
     check_hit_dot(report, off, on)
+
+
+@pytest.fixture(scope="module")
+def structure_panel(empty_blend):
+    """structure_panel_shot.py: an artist's 26 objects under the octree, the sidebar at its default width."""
+    for suffix in ("_boxes.png", "_heat.png", "_key.png", "_probe.png", ".json"):
+        path = os.path.join(OUT, "structure_panel" + suffix)
+        if os.path.exists(path):
+            os.remove(path)
+    process = gui_util.run_gui_blender(os.path.join(ROOT, "tests", "gui", "structure_panel_shot.py"), [OUT],
+                                       empty_blend, extra=["--enable-event-simulate"])
+    report = gui_util.read_report(os.path.join(OUT, "structure_panel.json"), process)
+    images = {name: gui_util.load_rgb(os.path.join(OUT, f"structure_panel_{name}.png"))
+              for name in ("boxes", "heat", "key")}
+    return report, images
+
+
+def worked_cells_mask(report, shape):
+    """The region pixels under the heat map's cells that did work, left of the sidebar (which covers the
+    view's right side) and clear of the legend in the bottom-left corner."""
+    cells = np.array(report["cells"])
+    rows, columns = cells.shape
+    region = report["region"]
+    height, width = shape
+    ys, xs = np.mgrid[0:height, 0:width]
+    cell_row = ((height - 1 - ys) * rows // height).clip(0, rows - 1)  # Blender's rows count from the bottom
+    cell_column = (xs * columns // width).clip(0, columns - 1)
+    mask = cells[cell_row, cell_column] > 0
+    # a cell's one-pixel rim may blend with its neighbour: only the cells' insides
+    mask &= ~gui_util.dilate(~mask, 2)
+    mask[:, report["sidebar"]["x"] - region["x"] - 4:] = False
+    mask[height - 90:, :260] = False
+    return mask
+
+
+def test_the_cost_heat_map_is_drawn_over_the_boxes(structure_panel):
+    """Issue 27: with both on, the heat map was buried under the green boxes."""
+    report, images = structure_panel
+    region = gui_util.Region(report["region"], images["boxes"].shape[0])
+    boxes, heat = region.crop(images["boxes"]), region.crop(images["heat"])
+    cells = worked_cells_mask(report, boxes.shape[:2])
+    assert cells.sum() > 20000
+    assert green_mask(boxes)[cells].mean() > 0.3, "the boxes cover the object where the rays do work"
+    assert green_mask(heat)[cells].mean() < 0.005, "the box lines show through the heat map's cells"
+    # ... and those cells are the heat map's colours: several of them, the hottest pale yellow
+    hot = gui_util.color_mask(heat, raylab.HEAT_COLOURS[-1], 0.08) & cells
+    assert hot.sum() > 200
+    assert green_mask(heat).sum() > 500, "the boxes still show around the cells"
+
+
+def sidebar_crop(report, image):
+    return gui_util.Region(report["sidebar"], image.shape[0]).crop(image)
+
+
+def test_colour_by_depth_has_a_key_in_the_structure_panel_in_the_boxes_colours(structure_panel):
+    report, images = structure_panel
+    key = report["key"]
+    assert [depth for depth, _ in key] == list(range(5))  # the octree of depth 4, every depth drawn
+    key_sidebar, boxes_sidebar = sidebar_crop(report, images["key"]), sidebar_crop(report, images["boxes"])
+    view = gui_util.Region(report["region"], images["key"].shape[0]).crop(images["key"])
+    view = view[:, :report["sidebar"]["x"] - report["region"]["x"]]
+    for depth, colour in key:
+        swatch = gui_util.color_mask(key_sidebar, colour, 0.06).sum()
+        assert swatch > 150, f"depth {depth}'s swatch is missing from the sidebar"
+        assert gui_util.color_mask(boxes_sidebar, colour, 0.06).sum() < 10  # no key without Colour by depth
+        # The boxes are drawn in the key's colours (a root's edges lie under its children's, drawn later).
+        if depth > 0:
+            assert gui_util.color_mask(view, colour, 0.06).sum() > 100, f"no box of depth {depth} in that colour"
+
+
+def test_the_structure_panel_ranks_the_costliest_objects_in_lines_that_fit(structure_panel):
+    report, _ = structure_panel
+    lines = report["lines"]
+    texts = [line for line, _, _ in lines]
+    assert texts, "the panel drew no text through text_fit"
+    too_wide = [(line, measured, room) for line, measured, room in lines if measured > room]
+    assert not too_wide, f"lines wider than the sidebar: {too_wide}"
+    text = " ".join(texts)
+    ranked = report["ranked"]
+    assert ranked[0][0] == "Sphere" and len(ranked) == 26
+    assert "Costliest objects, by their share of the triangle tests of" in text
+    shown = [name for name, _, _ in ranked[:5]]
+    positions = [text.index(f"% {name}: ") for name in shown]  # each named, with its share, in rank order
+    assert positions == sorted(positions)
+    assert ranked[5][0] + ":" not in text and "and 21 more" in text
+    # the per-object lines are wrapped, not elided: a line of the first object goes on in the next one
+    assert any(line.startswith(f"{round(100 * ranked[0][2])}% Sphere:") and not line.endswith("ms")
+               for line in texts)
+
+
+def test_the_probe_panels_status_lines_fit_the_sidebar(structure_panel):
+    report, _ = structure_panel
+    assert report["probe_status"] == "hit_object" and len(report["probe_text"]) > 1
+    parts = [part for line in report["probe_text"] for part in line.split(", ")]  # one count a row
+    drawn = [line for line, _, _ in report["probe_lines"]]
+    assert all(part in drawn for part in parts), (parts, drawn)
+    assert all(measured <= room for _, measured, room in report["probe_lines"])

@@ -5,17 +5,30 @@ The rays go through the centres of a grid of cells over the view (as many across
 square cells), from the view's near plane, on the scene model's raylab.Scene (structure_cache): the
 structures the overlay draws and the probe traces. They are traced again only when the view, the region,
 the scene model or the settings change, so orbiting traces a few thousand rays per redraw.
+
+The costliest objects: a grid of cells over the scene camera's image (what F12 renders), one ray each,
+each ray's work told apart by object. The core counts a ray's work for the whole scene; the scene's story of a
+ray (raylab.Scene.story, the same traversal) says what each instance it entered did, so the objects'
+counts add up exactly to the rays' counts. A story records every triangle it tests: when the rays test
+more than RANK_BUDGET triangles together, every k-th ray that did work is told apart (and the panel says
+how many were).
 """
+import math
+
 import bpy
 import numpy as np
 
 from .. import api
-from . import draw, structure_cache
+from . import draw, scene_export, structure_cache
 
 LEGEND_STEPS = 32       # colour steps of the legend's bar
 LEGEND_SIZE = (160, 12)  # the bar, in pixels
 LEGEND_ORIGIN = (16, 40)  # its bottom-left corner in the region, clear of Blender's own corner text
 CELL_ALPHA = 0.65       # a cell with no work is not drawn; the others let the shading show through
+# Over the structure's boxes (drawn before the cells, in the 3D pass) a cell lets nothing through: hundreds
+# of faint lines add up to green (a 0.92 cell still looked green over a dense octree); the boxes show
+# around the cells, where no ray did any work.
+CELL_ALPHA_OVER_BOXES = 1.0
 
 
 def grid_size(width, height, cells_across):
@@ -88,16 +101,110 @@ def quads(x0, y0, x1, y1):
     return positions, np.ascontiguousarray(indices, dtype=np.uint32)
 
 
-def cell_quads(counts, width, height, maximum):
+def display_colours(values, maximum):
+    """(N,4) RGBA of counts in the heat map's colours as the viewport shows them. raylab.heat_map gives
+    linear colours, for renders; the viewport's drawing takes colours as they are shown (as the depth
+    palette's and the probe's), so they go back through the sRGB curve: its top colour is the legend's
+    pale yellow, not a darker one."""
+    rgba = api.heat_map(np.asarray(values, np.float32), maximum).reshape(-1, 4)
+    linear = rgba[:, :3]
+    rgba[:, :3] = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1 / 2.4) - 0.055)
+    return rgba
+
+
+def cell_alpha(settings):
+    return CELL_ALPHA_OVER_BOXES if settings.show else CELL_ALPHA
+
+
+def cell_quads(counts, width, height, maximum, alpha=CELL_ALPHA):
     """The cells that did any work as region-pixel quads: positions (4Q,2), colours (4Q,4) on the fixed
-    scale [0, maximum], triangle indices (2Q,3)."""
+    scale [0, maximum] with `alpha`, triangle indices (2Q,3)."""
     rows, columns = counts.shape
     row, column = np.nonzero(counts > 0)
     positions, indices = quads(column * width / columns, row * height / rows,
                                (column + 1) * width / columns, (row + 1) * height / rows)
-    rgba = api.heat_map(counts[row, column].astype(np.float32), maximum).reshape(-1, 4)
-    rgba[:, 3] = CELL_ALPHA
+    rgba = display_colours(counts[row, column], maximum)
+    rgba[:, 3] = alpha
     return positions, np.repeat(rgba, 4, axis=0).astype(np.float32), indices
+
+
+# --- the costliest objects -------------------------------------------------------------------------
+
+RANK_COUNTER = "triangle_tests"  # what the objects are ranked by
+RANK_CELLS = 48                  # cells across the camera's image: one ray each (a story costs some 25 us)
+RANK_BUDGET = 250_000            # triangle tests the stories of one ranking may record (some 0.1 s)
+
+
+class ObjectCosts:
+    """Each shown object's triangle tests in the rays through the camera's image: counts[name], summed
+    over `told` of the `rays` traced (every ray unless they tested more than RANK_BUDGET triangles)."""
+
+    __slots__ = ("key", "rays", "told", "counts")
+
+    def __init__(self, key, rays, told, counts):
+        self.key, self.rays, self.told, self.counts = key, rays, told, counts
+
+    def ranked(self):
+        """[(name, triangle tests, share of all of them)] of every shown object, the costliest first (then
+        by name)."""
+        total = sum(self.counts.values())
+        rows = sorted(self.counts.items(), key=lambda item: (-item[1], item[0]))
+        return [(name, count, count / total if total else 0.0) for name, count in rows]
+
+
+_costs = {}  # scene name -> (ObjectCosts or None, why none)
+
+
+def camera_grid(camera):
+    """Raster points (N,2) at the centres of RANK_CELLS across square cells over the camera's image."""
+    width, height = api.image_size(camera)
+    columns, rows = grid_size(width, height, RANK_CELLS)
+    xs = (np.arange(columns) + 0.5) * width / columns
+    ys = (np.arange(rows) + 0.5) * height / rows
+    return np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+
+
+def object_costs(scene, depsgraph=None):
+    """(ObjectCosts of the scene camera's view, None), traced again only when the camera, the image or the
+    scene model changed; (None, why not) without a camera raylab can model or a shown mesh.
+    It traces (and lets go of Python's interpreter lock meanwhile): the viewport's draw calls it, a
+    panel reads last_object_costs."""
+    result = _object_costs(scene, depsgraph)
+    _costs[scene.name_full] = result
+    return result
+
+
+def last_object_costs(scene):
+    """What object_costs last found for the scene, without tracing: what the sidebar panel shows."""
+    return _costs.get(scene.name_full, (None, "The objects are ranked when the 3D view draws"))
+
+
+def _object_costs(scene, depsgraph):
+    if scene.camera is None:
+        return None, "No scene camera to look through"
+    try:
+        camera = scene_export.camera_dict(scene, scene.camera)
+        points = camera_grid(camera)
+    except (scene_export.ExportError, ValueError) as error:
+        return None, str(error)
+    model = structure_cache.scene_model(scene, depsgraph)
+    if not model.committed or not model.instances:
+        return None, model.error or "No shown mesh"
+    key = (repr({k: v.tobytes() if isinstance(v, np.ndarray) else v for k, v in camera.items()}),
+           len(points), id(model), model.generation)
+    costs = _costs.get(scene.name_full, (None,))[0]
+    if costs is not None and costs.key == key:
+        return costs, None
+    origins, directions = api.camera_rays(camera, points)
+    tmin = camera["clip_start"]  # where the render's camera rays start
+    work = model.scene.intersect(origins, directions, tmin=tmin, per_ray=True).per_ray[RANK_COUNTER]
+    step = max(1, math.ceil(int(work.sum(dtype=np.int64)) / RANK_BUDGET))
+    told = np.flatnonzero(work)[::step]  # a ray that tested no triangle adds none to any object
+    counts = dict.fromkeys(model.instances, 0)
+    for ray in told:
+        for part in model.scene.story(origins[ray], directions[ray], tmin=tmin).instances:
+            counts[model.instances[part.instance]] += part.story.stats[RANK_COUNTER]
+    return ObjectCosts(key, len(points), len(points) if step == 1 else len(told), counts), None
 
 
 # --- drawing (GUI only) ----------------------------------------------------------------------------
@@ -108,7 +215,7 @@ def _draw_legend(settings, grid):
     width, height = LEGEND_SIZE
     x, y = LEGEND_ORIGIN
     values = (np.arange(LEGEND_STEPS, dtype=np.float32) + 0.5) / LEGEND_STEPS * settings.cost_maximum
-    colors = api.heat_map(values, settings.cost_maximum).reshape(-1, 4)
+    colors = display_colours(values, settings.cost_maximum)
     step = width / LEGEND_STEPS
     x0 = x + step * np.arange(LEGEND_STEPS)
     positions, indices = quads(x0, np.full_like(x0, y), x0 + step, np.full_like(x0, y + height))
@@ -134,15 +241,20 @@ def _draw_cost():
     scene = context.scene
     settings = scene.raylab
     region, rv3d = context.region, context.region_data
+    if settings.show or settings.cost_enabled:  # the Structure panel ranks the objects it lists
+        before = _costs.get(scene.name_full)
+        if object_costs(scene, context.evaluated_depsgraph_get()) != before:
+            draw.tag_redraw(context)
     if not settings.cost_enabled or region is None or rv3d is None:
         return
     grid = cost_grid(scene, rv3d.perspective_matrix, region.width, region.height,
                      context.evaluated_depsgraph_get(), region.as_pointer())
     if grid is not None:
-        if grid.batch is None or grid.batch[0] != (settings.cost_maximum, region.width, region.height):
-            positions, colors, indices = cell_quads(grid.counts, region.width, region.height, settings.cost_maximum)
-            grid.batch = ((settings.cost_maximum, region.width, region.height),
-                          draw.make_batch('TRIS', positions, colors, indices) if len(indices) else None)
+        look = (settings.cost_maximum, cell_alpha(settings), region.width, region.height)
+        if grid.batch is None or grid.batch[0] != look:
+            positions, colors, indices = cell_quads(grid.counts, region.width, region.height, settings.cost_maximum,
+                                                    cell_alpha(settings))
+            grid.batch = (look, draw.make_batch('TRIS', positions, colors, indices) if len(indices) else None)
         if grid.batch[1] is not None:
             import gpu
             gpu.state.blend_set('ALPHA')
@@ -154,6 +266,7 @@ def _draw_cost():
 @bpy.app.handlers.persistent
 def _on_load(_):
     _grids.clear()
+    _costs.clear()
 
 
 _handles = []
@@ -170,3 +283,4 @@ def unregister():
     _handles.clear()
     bpy.app.handlers.load_post.remove(_on_load)
     _grids.clear()
+    _costs.clear()

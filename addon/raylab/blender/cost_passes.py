@@ -2,17 +2,32 @@
 the View Layer tab), registering them with the render engine the Blender way (update_render_passes), and
 writing a render's per-pixel work into them; and the heat pass, one of them in false colour on a fixed,
 stated scale (raylab.heat_map) with its legend. The pass list is api.COST_PASS_INFO (declared once in
-native/include/raylab/cost_passes.h); nothing here lists a pass or a counter again."""
+native/include/raylab/cost_passes.h); nothing here lists a pass or a counter again.
+
+The heat pass starts on the triangle tests with an automatic maximum: a high percentile of the pixels
+that did any work, rounded up to a round number, so the first render shows the scene's spread of work (a
+fixed 0-100 made a black picture of rays, one or two per pixel). A maximum the user types is kept: the
+scale is then fixed, and renders with different structures compare colour for colour."""
+import math
+
 import bpy
+import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, PointerProperty
 
 from .. import api
-from . import compat
+from ..heat import HEAT_COLOUR_NAMES
+from . import compat, text_fit
 
 # A count per pixel: one float channel, as Blender's Depth pass.
 CHANNELS, CHANNEL_ID, PASS_TYPE = 1, "X", 'VALUE'
 # The false-colour view of one count: a colour pass.
 HEAT_PASS = "raylab Heat"
+# The count it shows until the user picks another: where a structure saves or spends.
+HEAT_DEFAULT = next(name for name, info in api.COST_PASS_INFO.items() if info["counter"] == "triangle_tests")
+# The automatic maximum: this percentile of the pixels that did any work (a few hot pixels do not darken
+# the rest), rounded up to the first of these steps times a power of ten.
+AUTO_PERCENTILE = 95
+ROUND_STEPS = (1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10)
 
 
 def use_property(pass_name):
@@ -29,6 +44,11 @@ def _passes_changed(self, context):
             compat.update_render_passes(view_layer)
 
 
+def _maximum_set(self, context):
+    # A maximum the user sets is the scale from then on.
+    self.heat_maximum_auto = False
+
+
 def _annotations():
     fields = {use_property(name): BoolProperty(
         name=info["label"], default=False, update=_passes_changed,
@@ -43,13 +63,17 @@ def _annotations():
         description=f"Deliver the \"{HEAT_PASS}\" pass: one count per pixel in false colour (inferno) on the "
                     "fixed scale 0 to Heat Maximum, with its legend")
     fields["heat_pass"] = EnumProperty(
-        name="Heat Of", default=api.COST_PASSES[0],
+        name="Heat Of", default=HEAT_DEFAULT,
         items=[(name, info["label"], info["description"]) for name, info in api.COST_PASS_INFO.items()],
         description="The count the heat pass shows")
+    fields["heat_maximum_auto"] = BoolProperty(
+        name="Auto Maximum", default=True,
+        description=f"Each render's top colour is the {AUTO_PERCENTILE}th percentile of its pixels that did "
+                    "any work, rounded up (the render states it); off: Heat Maximum, one fixed scale")
     fields["heat_maximum"] = FloatProperty(
-        name="Heat Maximum", default=100.0, min=1e-3, soft_max=1e6,
+        name="Heat Maximum", default=100.0, min=1e-3, soft_max=1e6, update=_maximum_set,
         description="The count shown in the top colour (and anything above it): renders on the same maximum "
-                    "compare colour for colour, whatever their structure")
+                    "compare colour for colour, whatever their structure. Setting it turns Auto Maximum off")
     fields["heat_legend"] = BoolProperty(
         name="Legend in Image", default=True,
         description="Draw the colour bar with its numbers (0, the middle, the maximum) over the heat pass's "
@@ -91,23 +115,50 @@ def add_passes(engine, view_layer):
         engine.add_pass(name, channels, ids, layer=view_layer.name)
 
 
-def scale_text(props):
-    """The heat settings' scale in words: "Triangle tests per pixel: 0 (black) to 100+ (pale yellow), ..."."""
-    return api.heat_scale_text(api.COST_PASS_INFO[props.heat_pass]["label"], props.heat_maximum)
+def round_up(value):
+    """The first round number (ROUND_STEPS times a power of ten) at or above `value` > 0."""
+    power = 10.0 ** math.floor(math.log10(value))
+    return next(float(f"{step * power:.6g}") for step in ROUND_STEPS if step * power >= value * (1 - 1e-9))
 
 
-def heat_scale(props):
-    """The heat pass's scale in words (the stats line, the Last Render panel), or None without one."""
-    return scale_text(props) if props.use_heat else None
+def automatic_maximum(counts):
+    """The heat scale's top for one image of counts: the AUTO_PERCENTILE-th percentile of its pixels that
+    did any work, rounded up (round_up); 1 when no pixel did any."""
+    working = np.asarray(counts)[np.asarray(counts) > 0]
+    return round_up(float(np.percentile(working, AUTO_PERCENTILE))) if working.size else 1.0
+
+
+def counts_of(cost, props):
+    """The counts the heat pass shows, from a render's result.cost."""
+    return cost[api.COST_PASS_INFO[props.heat_pass]["counter"]]
+
+
+def heat_maximum(cost, props):
+    """The maximum of one render's heat pass: the automatic one, or the one the user set."""
+    return automatic_maximum(counts_of(cost, props)) if props.heat_maximum_auto else props.heat_maximum
+
+
+def scale_text(props, maximum):
+    """The heat scale in words: "Triangle tests per pixel: 0 (black) to 100+ (pale yellow), inferno",
+    with how an automatic maximum was found."""
+    text = api.heat_scale_text(api.COST_PASS_INFO[props.heat_pass]["label"], maximum)
+    return f"{text} (automatic: the {AUTO_PERCENTILE}th percentile)" if props.heat_maximum_auto else text
+
+
+def heat_scale(props, result):
+    """The heat pass's scale in words for one render (the stats line, the Last Render panel), or None
+    without a heat pass (result.cost, copied when first read, is left alone then)."""
+    return scale_text(props, heat_maximum(result.cost, props)) if props.use_heat else None
 
 
 def heat_image(cost, props):
     """The heat pass of one render: (H, W, 4) linear RGBA, row 0 the top, the legend over the bottom
     rows when asked and the image is large enough to keep the picture readable above it."""
-    image = api.heat_map(cost[api.COST_PASS_INFO[props.heat_pass]["counter"]], props.heat_maximum)
+    maximum = heat_maximum(cost, props)
+    image = api.heat_map(counts_of(cost, props), maximum)
     height, width = image.shape[:2]
     if props.heat_legend and width >= 128 and height >= 96:
-        legend = api.heat_legend(props.heat_maximum, width=width)
+        legend = api.heat_legend(maximum, width=width)
         image[height - len(legend):] = legend
     return image
 
@@ -150,15 +201,36 @@ class RAYLAB_PT_view_layer_passes(bpy.types.Panel):
         for name in api.COST_PASSES:
             column.prop(props, use_property(name))
         layout.prop(props, "cost_rays")
+        text_fit.label(layout, context, COUNTS_NOTE, icon='INFO')
         layout.separator()
         layout.prop(props, "use_heat")
         heat = layout.column()
         heat.active = props.use_heat
         heat.prop(props, "heat_pass")
-        heat.prop(props, "heat_maximum")
+        scale = heat.column(align=True)
+        scale.use_property_split = False  # labels beside their checkbox, inside their field: none cut short
+        scale.prop(props, "heat_maximum_auto")
+        maximum = scale.row()
+        maximum.active = not props.heat_maximum_auto
+        maximum.prop(props, "heat_maximum")
         heat.prop(props, "heat_legend")
         # The scale stated in words: the same maximum in two renders, the same colour, the same count.
-        heat.label(text=scale_text(props), icon='INFO')
+        text_fit.label(heat, context, planned_scale_text(props), icon='INFO')
+
+
+# The count passes hold numbers, not colours: shown as an image, every pixel that did any work is white.
+COUNTS_NOTE = ("The passes hold counts (40 tests: 40.0), which the Image Editor shows as white; Heat shows "
+               "one of them in colour")
+
+
+def planned_scale_text(props):
+    """The heat scale in words before a render: fixed, or how each render finds its own."""
+    if not props.heat_maximum_auto:
+        return scale_text(props, props.heat_maximum)
+    label = api.COST_PASS_INFO[props.heat_pass]["label"]
+    low, high = HEAT_COLOUR_NAMES
+    return (f"{label} per pixel: 0 ({low}) to the {AUTO_PERCENTILE}th percentile of each render's pixels "
+            f"that did work ({high}); the render states the number")
 
 
 CLASSES = (RAYLAB_PG_passes, RAYLAB_PT_view_layer_passes)

@@ -20,8 +20,11 @@ DEPTH_PALETTE = np.array([
     (0.80, 0.55, 0.35),
 ], dtype=np.float32)
 
-# While the probe is on, the boxes are drawn this faint, so that the probe's path stands out.
+# While the probe is on, the boxes are drawn this faint, so that the probe's path stands out; while the
+# cost heat map is on, fainter still: its cells are drawn after the boxes, over them (cost_overlay's
+# CELL_ALPHA_OVER_BOXES), and the boxes around them stay as faint context.
 PROBE_DIM = 0.3
+COST_DIM = 0.2
 
 
 class LineGeometry:
@@ -44,7 +47,12 @@ _geometry = {}  # object name -> LineGeometry
 
 def filter_key(settings):
     return (settings.depth_min, settings.depth_max, settings.leaves_only, settings.color_by_depth,
-            settings.fade, tuple(round(c, 4) for c in settings.line_color), settings.probe_enabled)
+            settings.fade, tuple(round(c, 4) for c in settings.line_color), alpha_scale(settings))
+
+
+def alpha_scale(settings):
+    """How strongly the boxes are drawn under the probe or the heat map (1: alone)."""
+    return COST_DIM if settings.cost_enabled else PROBE_DIM if settings.probe_enabled else 1.0
 
 
 def box_palette(settings):
@@ -52,6 +60,26 @@ def box_palette(settings):
     if settings.color_by_depth:
         return np.concatenate([DEPTH_PALETTE, np.ones((len(DEPTH_PALETTE), 1), np.float32)], axis=1)
     return np.asarray(settings.line_color, dtype=np.float32)[None, :]
+
+
+def depth_key(settings, depths):
+    """The key of the colours by depth: [(depth, (4,) RGBA)] of every depth in `depths` (those of the boxes
+    drawn) inside the depth range, in the colour its boxes are drawn in (the palette repeats past its end)."""
+    palette = box_palette(settings)
+    shown = sorted({int(d) for d in depths if settings.depth_min <= d <= settings.depth_max})
+    return [(depth, palette[depth % len(palette)]) for depth in shown]
+
+
+def drawn_depths(scene, view_layer=None):
+    """The depths of the boxes the overlay draws (leaves only, if so set) over every shown object whose
+    structure is built, without building any."""
+    depths = set()
+    for obj in structure_cache.target_objects(scene, view_layer):
+        entry = structure_cache.cached(obj, scene)
+        if entry is not None and entry.structure is not None:
+            boxes = entry.boxes()
+            depths.update(np.unique(boxes["depth"][boxes["leaf"]] if scene.raylab.leaves_only else boxes["depth"]))
+    return depths
 
 
 def line_geometry(obj, scene, depsgraph=None):
@@ -70,7 +98,7 @@ def line_geometry(obj, scene, depsgraph=None):
     # 140 ms for a depth-8 octree on the dragon.
     lines = entry.structure.boxes(lines=True, depth_min=settings.depth_min, depth_max=settings.depth_max,
                                   leaves_only=settings.leaves_only, palette=box_palette(settings),
-                                  fade=settings.fade, alpha_scale=PROBE_DIM if settings.probe_enabled else 1.0)
+                                  fade=settings.fade, alpha_scale=alpha_scale(settings))
     geometry = LineGeometry(key, lines["positions"], lines["colors"], lines["indices"], lines["box_count"])
     _geometry[obj.name_full] = geometry
     stats["batch_builds"] += 1

@@ -131,7 +131,7 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
             return
         record = render_stats.record(result.stats, props.super_sampling)
         line = render_stats.line(result.stats)
-        scale = cost_passes.heat_scale(passes)
+        scale = cost_passes.heat_scale(passes, result)
         if scale is not None:  # stated with the image, so that two renders compare on one scale
             record[render_stats.HEAT_SCALE] = scale
             line += f" | heat: {scale}"
