@@ -127,8 +127,10 @@ def overflowing(root, width, context):
         if node.text == "":
             return
         if node.text is not None:
-            share = room if not node.use_property_split else \
-                room * SPLIT_LABEL if node.kind == "prop" else room * (1.0 - SPLIT_LABEL)
+            # A split row gives a property's label 40 % and a checkbox's text the value's 60 %; labels and
+            # buttons keep the whole row.
+            split = node.use_property_split and node.kind in ("prop", "prop_bool")
+            share = room * (SPLIT_LABEL if node.kind == "prop" else 1.0 - SPLIT_LABEL) if split else room
             icon = node.icon != 'NONE' or node.kind == "prop_bool"  # a checkbox takes an icon's room
             free = share - unit * ((text_fit.ICON if icon else 0.0) + text_fit.TEXT_PADDING)
             measured = text_fit.measure(node.text, pixels)
