@@ -81,6 +81,20 @@ def test_cells_did_work_where_their_rays_come_near_the_mesh(sphere_and_camera):
     assert cost_overlay.cost_grid(scene, matrix, r.resolution_x, r.resolution_y) is grid
 
 
+def test_the_legend_says_why_an_object_is_not_traced(sphere_and_camera):
+    """Issue 27, item 11: a NaN vertex left the map empty and its legend read "hardest here 0"."""
+    scene, camera = sphere_and_camera
+    sphere = next(o for o in scene.objects if o.type == 'MESH')
+    sphere.data.vertices[3].co = (float("nan"), 0.0, 0.0)
+    sphere.data.update()
+    bpy.context.view_layer.update()
+    r = scene.render
+    grid = cost_overlay.cost_grid(scene, perspective_matrix(scene, camera), r.resolution_x, r.resolution_y)
+    errors = structure_cache.scene_model(scene).errors()
+    title = cost_overlay.legend_title(scene.raylab, grid, errors)
+    assert f"{sphere.name}: vertex 3 has a NaN or infinite coordinate" in title and "hardest here" not in title
+
+
 def sphere_arrays(obj):
     mesh = obj.data
     m = np.array(obj.matrix_world)

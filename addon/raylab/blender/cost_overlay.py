@@ -209,7 +209,17 @@ def _object_costs(scene, depsgraph):
 
 # --- drawing (GUI only) ----------------------------------------------------------------------------
 
-def _draw_legend(settings, grid):
+def legend_title(settings, grid, errors=()):
+    """The legend's line over its colour ramp: the counter, the structure and the hardest cell, or, when an
+    object cannot be traced, why (a map without it would read "hardest here 0" and say nothing)."""
+    label = api.COUNTER_INFO[settings.cost_counter]["label"]
+    if errors:
+        return f"{label} per ray: not traced, {errors[0]}"
+    hardest = int(grid.counts.max()) if grid is not None else 0
+    return f"{label} per ray ({settings.structure}); hardest here {hardest}"
+
+
+def _draw_legend(settings, grid, errors=()):
     import blf
     import gpu
     width, height = LEGEND_SIZE
@@ -226,10 +236,8 @@ def _draw_legend(settings, grid):
     font = 0
     blf.size(font, 12)
     blf.color(font, 1.0, 1.0, 1.0, 1.0)
-    label = api.COUNTER_INFO[settings.cost_counter]["label"]
-    hardest = int(grid.counts.max()) if grid is not None else 0
     blf.position(font, x, y + height + 6, 0)
-    blf.draw(font, f"{label} per ray ({settings.structure}); hardest here {hardest}")
+    blf.draw(font, legend_title(settings, grid, errors))
     for value, text in api.heat_ticks(settings.cost_maximum):
         fraction = value / settings.cost_maximum
         blf.position(font, x + fraction * width - (6 if fraction else 0), y - 16, 0)
@@ -260,7 +268,7 @@ def _draw_cost():
             gpu.state.blend_set('ALPHA')
             grid.batch[1].draw(gpu.shader.from_builtin(draw.THIN))
             gpu.state.blend_set('NONE')
-    _draw_legend(settings, grid)
+    _draw_legend(settings, grid, structure_cache.scene_model(scene, context.evaluated_depsgraph_get()).errors())
 
 
 @bpy.app.handlers.persistent
