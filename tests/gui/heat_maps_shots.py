@@ -1,6 +1,6 @@
 """Runs inside a real Blender window (xvfb-run): opens the "Where does the work go?" level, presses
 Render Heat Maps as a student does (the modal job, on its worker thread), waits for it, and takes a
-screenshot of the window: the level's tasks with the numbers under them, and below the 3D viewport the
+screenshot of the window: the level's tasks with the numbers under them, and above the 3D viewport the
 Image Editor with the heat maps and the numbers in its sidebar.
 
     xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup START.blend --enable-event-simulate \
@@ -125,12 +125,15 @@ def next_level():
     window, area, region, _ = view3d()
     with bpy.context.temp_override(window=window, area=area, region=region):
         assert bpy.ops.raylab.level_next() == {'FINISHED'}
-    report["areas_after_next"] = areas_now()
     report["level_after_next"] = levels.state(bpy.context.window_manager.windows[0].scene)["id"]
 
 
+def after_next():
+    report["areas_after_next"] = areas_now()
+
+
 STEPS = [open_level, click_raylab_tab, press_render_heat_maps, wait_for_the_job, fit_the_picture, shoot,
-         next_level]
+         next_level, after_next]
 
 
 def run():

@@ -20,6 +20,7 @@ each map (a draw callback, in the band left for them), the panels show and the l
 Pixels count x from the left and y from the top, as the probe does.
 """
 import dataclasses
+import functools
 
 import bpy
 import numpy as np
@@ -126,19 +127,32 @@ _split_areas = set()  # the Image Editors show_picture split off a 3D viewport (
 
 def close_picture(window):
     """Joins back the Image Editor show_picture split off, if it still shows the heat maps: leaving the level
-    closes it (its numbers belong to the level's scene). An editor the user had or changed stays."""
-    for area in list(window.screen.areas):
+    closes it (its numbers belong to the level's scene). An editor the user had or changed stays. Closed from
+    a timer, once the level's operator is done: closing an area while the operator then removes the old
+    scene crashed Blender 3.4."""
+    for area in window.screen.areas:
         if area.as_pointer() in _split_areas and area.type == 'IMAGE_EDITOR' \
                 and getattr(area.spaces.active.image, "name", None) == IMAGE_NAME:
             _split_areas.discard(area.as_pointer())
-            with bpy.context.temp_override(window=window, area=area):
-                bpy.ops.screen.area_close()
+            bpy.app.timers.register(functools.partial(_close_area, area.as_pointer()), first_interval=0.0)
+
+
+def _close_area(pointer):
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.as_pointer() == pointer and area.type == 'IMAGE_EDITOR':
+                with bpy.context.temp_override(window=window, area=area):
+                    bpy.ops.screen.area_close()
+                return None
+    return None
 
 
 def show_picture(context, image):
     """Shows the picture in the window's Image Editor (its numbers are written under the maps); without one,
-    the bottom part of the largest 3D viewport becomes one, so the probe stays in view above the maps.
-    (render.view_show's window is sized for the render, 160 pixels wide here: too small for the maps.)"""
+    the top part of the largest 3D viewport becomes one, the probe in view under the maps. The top: closing
+    it (close_picture) gives its room back to that viewport, its one neighbour along a whole edge (closing
+    a bottom part gave it to the timeline). (render.view_show's window is sized for the render, 160 pixels
+    wide here: too small for the maps.)"""
     window = context.window or context.window_manager.windows[0]
     screen = window.screen
     area = next((a for a in screen.areas if a.type == 'IMAGE_EDITOR'), None)
@@ -152,7 +166,7 @@ def show_picture(context, image):
         with context.temp_override(window=window, area=view, region=region):
             bpy.ops.screen.area_split(direction='HORIZONTAL', factor=SPLIT)
         halves = [view] + [a for a in screen.areas if a.as_pointer() not in before]
-        area = min(halves, key=lambda a: a.y)  # the lower half
+        area = max(halves, key=lambda a: a.y)  # the upper part
         area.type = 'IMAGE_EDITOR'
         _split_areas.add(area.as_pointer())
     area.spaces.active.image = image
