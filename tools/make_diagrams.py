@@ -1,28 +1,39 @@
-"""Draws the 2D teaching diagrams of the tutorial levels into levels/<level>/diagrams/*.png.
+"""Draws the 2D teaching diagrams of the tutorial levels into levels/<level>/diagrams/*.png (the
+benchmark's charts beside them, bench_*.png, come from tools/bench/charts.py: ./raylab bench --publish,
+or redrawn from the published report with /usr/bin/python3 -m tools.bench.published).
 
 Run with Debian's Python (matplotlib from python3-matplotlib):  /usr/bin/python3 tools/make_diagrams.py
+[NAME ...] (the functions below; all of them by default).
 The geometry is computed, not sketched: the quadtree is built with the same rule as raylab's octree
 (split while depth < max_depth and a cell holds more than leaf_size triangles; a triangle goes to every
 cell it overlaps by the separating-axis test), and the rays are intersected with real slab and edge tests.
 VRT's users asked for diagrams in the tutorial text (thesis, section 5); these are them.
+
+Each diagram is drawn for the sidebar's Tutorial panel (tools/panel_figure.py): a column of squares,
+every text large enough to read at the panel's width, few words on the picture (the level's text says
+the rest). Orange marks the triangles a ray tests.
 """
 import os
+import sys
 
-import matplotlib
+import numpy as np
+from matplotlib.patches import Polygon, Rectangle
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Polygon, Rectangle  # noqa: E402
+import panel_figure as page
+from panel_figure import SMALL_PT, TEXT_PT
 
-LEVELS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "levels")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LEVELS = os.path.join(ROOT, "levels")
 DEPTH_COLORS = ["#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02"]
 SHAPE_FILL = "#9ecae1"
 SHAPE_EDGE = "#3182bd"
+TESTED = "#fd8d3c"          # a triangle the ray tests
+ENTERED = "#fdd49e"         # a cell or leaf the ray enters with triangles in it
 BOX = "#2ca02c"
 RAY = "#d62728"
 MISS = "#7f7f7f"
-plt.rcParams.update({"font.size": 12, "axes.titlesize": 13})
+EDGE_PT = 1.2               # triangle outlines: thinner than the boxes they sit in, still a line in the panel
+BOX_PT = 3.0
 
 
 # ---------------------------------------------------------------- geometry
@@ -111,10 +122,11 @@ def square_around(points, margin=0.05):
 
 def ray_box(origin, direction, lo, hi):
     """Slab test: (t_entry, t_exit) or None."""
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / direction
-    t0, t1 = (lo - origin) * inv, (hi - origin) * inv
-    tnear, tfar = np.minimum(t0, t1).max(), np.maximum(t0, t1).min()
+        t0, t1 = (lo - origin) * inv, (hi - origin) * inv
+    # fmin / fmax skip the NaN of a ray that runs along a slab's plane (0 times infinity).
+    tnear, tfar = np.fmin(t0, t1).max(), np.fmax(t0, t1).min()
     if tfar < max(tnear, 0.0):
         return None
     return max(tnear, 0.0), tfar
@@ -176,38 +188,42 @@ def find_ray(status, origin_x, ys, triangles, root_lo, root_hi, leaves):
 # ---------------------------------------------------------------- drawing helpers
 
 
-def new_figure(ncols=1, nrows=1, width=4.8, height=3.8):
-    fig, axes = plt.subplots(nrows, ncols, figsize=(width * ncols, height * nrows), squeeze=False)
-    for ax in axes.flat:
-        ax.set_aspect("equal")
-        ax.axis("off")
-    return fig, axes.flat
-
-
-def draw_triangles(ax, triangles, face=SHAPE_FILL, edge=SHAPE_EDGE, lw=0.8):
+def draw_triangles(ax, triangles, face=SHAPE_FILL, edge=SHAPE_EDGE, lw=EDGE_PT):
     for t in triangles:
         ax.add_patch(Polygon(t, closed=True, facecolor=face, edgecolor=edge, lw=lw))
 
 
-def draw_box(ax, lo, hi, color=BOX, lw=2.0, ls="-", fill=None, alpha=1.0):
+def draw_tested(ax, triangles, tested, lw=EDGE_PT):
+    """The triangles, the tested ones orange."""
+    draw_triangles(ax, [t for i, t in enumerate(triangles) if i not in tested], lw=lw)
+    draw_triangles(ax, [triangles[i] for i in sorted(tested)], face=TESTED, edge="#a63603", lw=lw)
+
+
+def draw_box(ax, lo, hi, color=BOX, lw=BOX_PT, ls="-", fill=None, alpha=1.0, zorder=1):
     ax.add_patch(Rectangle(lo, *(hi - lo), fill=fill is not None, facecolor=fill, edgecolor=color,
-                           lw=lw, ls=ls, alpha=alpha))
+                           lw=lw, ls=ls, alpha=alpha, zorder=zorder))
 
 
-def draw_ray(ax, origin, direction, length, color=RAY, stop=None):
-    """An arrow from origin; `stop` (a distance) ends it at a hit point marked with a dot."""
+def draw_ray(ax, origin, direction, length, color=RAY, stop=None, lw=3.5):
+    """An arrow from origin; `stop` (a distance) ends it at a hit point marked with a dot. A ray that
+    hits nothing ends where it leaves the picture (frame() first), never in the next tile."""
+    if stop is None:
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        span = ray_box(origin, direction, np.array([x0, y0]), np.array([x1, y1]))
+        length = min(length, span[1]) if span is not None else length
     end = origin + direction * (stop if stop is not None else length)
-    ax.annotate("", xy=end, xytext=origin, annotation_clip=False,
-                arrowprops=dict(arrowstyle="-|>" if stop is None else "-", color=color, lw=2.2))
-    ax.plot(*origin, "o", color=color, ms=6)
+    ax.annotate("", xy=end, xytext=origin, annotation_clip=False, zorder=5,
+                arrowprops=dict(arrowstyle="-|>,head_length=0.8,head_width=0.4" if stop is None else "-",
+                                color=color, lw=lw, shrinkA=0, shrinkB=0))
+    ax.plot(*origin, "o", color=color, ms=10, zorder=6)
     if stop is not None:
-        ax.plot(*end, "o", color="black", ms=7, zorder=5)
+        ax.plot(*end, "o", color="black", ms=11, zorder=6)
 
 
 def mark_entry(ax, origin, direction, lo, hi, color=BOX):
     span = ray_box(origin, direction, lo, hi)
     if span is not None:
-        ax.plot(*(origin + direction * span[0]), "o", color=color, ms=8, mec="black", zorder=6)
+        ax.plot(*(origin + direction * span[0]), "o", color=color, ms=12, mec="black", mew=1.5, zorder=7)
 
 
 def frame(ax, lo, hi, pad=0.3):
@@ -218,11 +234,7 @@ def frame(ax, lo, hi, pad=0.3):
 def save(fig, level, name):
     folder = os.path.join(LEVELS, level, "diagrams")
     os.makedirs(folder, exist_ok=True)
-    path = os.path.join(folder, name)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100, facecolor="white", bbox_inches="tight", pad_inches=0.15)
-    plt.close(fig)
-    return path
+    return page.save(fig, os.path.join(folder, name))
 
 
 def unit(v):
@@ -236,23 +248,25 @@ def unit(v):
 def aabb_bounding_box():
     """A shape and its box; the same shape turned by 30 degrees gets a new, bigger box."""
     shape = blob()
-    fig, (a, b) = new_figure(2)
-    for ax, degrees, title in ((a, 0, "box = min and max\nof all vertices"),
-                               (b, 30, "object turned 30°:\nbox computed again")):
+    fig = page.figure(2)
+    for tile, degrees, title in ((0, 0, "box = min and max\nof the vertices"),
+                                 (1, 30, "turned 30°:\na new, bigger box")):
+        page.title(fig, tile, title)
+        ax = page.axes(fig, tile, bottom=0.1 if degrees else 0.02, height=0.7 if degrees else 0.78)
         s = rotate(shape, degrees, shape.mean(axis=0))
         draw_triangles(ax, fan_triangles(s))
         lo, hi = s.min(axis=0), s.max(axis=0)
         draw_box(ax, lo, hi)
         if degrees == 0:
-            ax.plot(*lo, "s", color="black", ms=7)
-            ax.plot(*hi, "s", color="black", ms=7)
-            ax.annotate("min", lo, xytext=(-28, -14), textcoords="offset points")
-            ax.annotate("max", hi, xytext=(6, 4), textcoords="offset points")
+            ax.plot(*lo, "s", color="black", ms=11)
+            ax.plot(*hi, "s", color="black", ms=11)
+            ax.annotate("min", lo, xytext=(-12, -8), textcoords="offset points", ha="right", va="top")
+            ax.annotate("max", hi, xytext=(12, 8), textcoords="offset points", ha="left", va="bottom")
         else:
             old = rotate(shape, 0, shape.mean(axis=0))
-            draw_box(ax, old.min(axis=0), old.max(axis=0), color=MISS, lw=1.2, ls="--")
-        ax.set_title(title)
-        frame(ax, np.array([-1.3, -1.3]), np.array([1.3, 1.3]))
+            draw_box(ax, old.min(axis=0), old.max(axis=0), color=MISS, lw=2.0, ls="--")
+            page.note(fig, tile, 0.5, 0.09, "dashed: the box before", size=SMALL_PT, ha="center", color="#555555")
+        frame(ax, np.array([-1.5, -1.3]), np.array([1.5, 1.3]), pad=0.05)
     return save(fig, "aabb_1", "bounding_box.png")
 
 
@@ -263,21 +277,21 @@ def aabb_ray_cases():
     lo, hi = shape.min(axis=0), shape.max(axis=0)
     leaves = [(lo, hi, list(range(len(tris))))]  # the AABB is a root that is also the only leaf
     ys = np.linspace(-1.3, 1.5, 57)
-    cases = [("missed_root", "ignored:\nmisses the box,\nno triangle tested"),
-             ("missed_triangles", "box hit, object missed:\nall triangles tested"),
-             ("hit_object", "object hit:\nall triangles tested")]
-    fig, axes = new_figure(2, 2, width=3.8, height=3.8)  # near square: the sidebar shows it in a square
-    axes = list(axes)
-    axes[3].text(0.0, 0.5, "a box test costs about\none triangle test:\na ray that misses the box\n"
-                 "saves all the triangle tests", fontsize=12, va="center")
-    for ax, (status, title) in zip(axes, cases):
+    cases = [("missed_root", "ignored:\nit misses the box"),
+             ("missed_triangles", "box hit,\nobject missed"),
+             ("hit_object", "object hit")]
+    fig = page.figure(len(cases))
+    for tile, (status, title) in enumerate(cases):
         o, d = find_ray(status, -2.0, ys, tris, lo, hi, leaves)
-        draw_triangles(ax, tris)
+        _, tested = ray_status(o, d, tris, lo, hi, leaves)
+        page.title(fig, tile, title)
+        ax = page.axes(fig, tile, bottom=0.13, height=0.62)
+        frame(ax, np.array([-2.1, -1.4]), np.array([1.6, 1.6]), pad=0.05)
+        draw_tested(ax, tris, tested)
         draw_box(ax, lo, hi)
         draw_ray(ax, o, d, 3.6, stop=ray_triangles(o, d, tris))
         mark_entry(ax, o, d, lo, hi)
-        ax.set_title(title, fontsize=11)
-        frame(ax, np.array([-2.1, -1.4]), np.array([1.6, 1.6]), pad=0.1)
+        page.note(fig, tile, 0.5, 0.11, f"{len(tested)} of {len(tris)} triangles tested", ha="center")
     return save(fig, "aabb_2", "ray_vs_box.png")
 
 
@@ -291,58 +305,75 @@ def sample_scene():
 def quadtree_depths():
     tris = sample_scene()
     lo, hi = square_around(np.vstack(tris))
-    fig, axes = new_figure(2, 2, width=3.6, height=3.8)
-    for ax, depth in zip(axes, (1, 2, 3, 4)):
-        draw_triangles(ax, tris, lw=0.5)
+    fig = page.figure(2)
+    for i, depth in enumerate((1, 2, 3, 4)):
+        tile, left = divmod(i, 2)
+        fig.text(0.25 + 0.5 * left, page.y(fig, tile, 0.82), f"max depth {depth}", ha="center", va="bottom",
+                 fontsize=page.TITLE_PT)
+        ax = page.axes(fig, tile, left=0.02 + 0.5 * left, bottom=0.18, width=0.46, height=0.62)
+        draw_triangles(ax, tris, lw=0.8)
         for clo, chi, d, leaf, ids in build_quadtree(tris, lo, hi, depth, leaf_size=2):
             if leaf:
-                draw_box(ax, clo, chi, color=DEPTH_COLORS[d % len(DEPTH_COLORS)], lw=1.6)
-        ax.set_title(f"max depth {depth}")
-        frame(ax, lo, hi, pad=0.1)
-    fig.suptitle("leaves coloured by depth; empty cells are not stored", fontsize=12)
+                draw_box(ax, clo, chi, color=DEPTH_COLORS[d % len(DEPTH_COLORS)], lw=2.0)
+        frame(ax, lo, hi, pad=0.05)
     return save(fig, "octree_1", "quadtree_depth.png")
 
 
 def vertex_rule_vs_sat():
-    """VRT's bug: a large triangle crosses cells that hold none of its vertices."""
+    """VRT's bug: a large triangle crosses cells that hold none of its vertices. Side by side, as the
+    level's text reads them: the vertex rule left, the separating-axis test right."""
     tri = np.array([[0.15, 0.2], [3.85, 0.9], [1.2, 3.8]])
     lo, hi, n = np.array([0.0, 0.0]), np.array([4.0, 4.0]), 4
-    fig, (a, b) = new_figure(2)
-    for ax, rule, title in ((a, vertex_inside_box, "VRT: a vertex inside the cell\n(red: cells that lose it)"),
-                            (b, triangle_overlaps_box, "raylab: separating-axis test\n(every cell it touches)")):
+    fig = page.figure(1)
+    page.title(fig, 0, "cells that hold it")
+    for left, rule, title in ((0.0, vertex_inside_box, "VRT's rule"), (0.5, triangle_overlaps_box, "raylab's test")):
+        fig.text(left + 0.25, page.y(fig, 0, 0.84), title, ha="center", va="top", fontsize=TEXT_PT)
+        ax = page.axes(fig, 0, left=left + 0.02, bottom=0.2, width=0.46, height=0.55)
         for i in range(n):
             for j in range(n):
                 clo, chi = np.array([i, j], float), np.array([i + 1, j + 1], float)
                 overlaps = triangle_overlaps_box(tri, clo, chi)
                 kept = rule(tri, clo, chi)
                 fill = "#a1d99b" if kept else ("#fc9272" if overlaps else None)
-                draw_box(ax, clo, chi, color="#555555", lw=1.0, fill=fill)
-        draw_triangles(ax, [tri], face="none", edge=SHAPE_EDGE, lw=2.5)
-        ax.plot(tri[:, 0], tri[:, 1], "o", color=SHAPE_EDGE, ms=7)
-        ax.set_title(title, fontsize=11)
+                draw_box(ax, clo, chi, color="#555555", lw=1.2, fill=fill)
+        draw_triangles(ax, [tri], face="none", edge=SHAPE_EDGE, lw=3.0)
+        ax.plot(tri[:, 0], tri[:, 1], "o", color=SHAPE_EDGE, ms=8)
         frame(ax, lo, hi, pad=0.1)
+    page.note(fig, 0, 0.5, 0.16, "red: cells that lose it", ha="center", color="#cb181d")
     return save(fig, "octree_1", "vertex_rule_vs_sat.png")
 
 
 def separating_axis():
-    """The SAT idea: if some axis separates the shadows of triangle and box, they do not overlap."""
+    """The SAT idea: if some axis separates the shadows of triangle and box, they do not overlap. The axis
+    is drawn under both shapes, their shadows on it, and the lines that cast them."""
     tri = np.array([[2.2, 0.2], [3.6, 1.0], [2.0, 2.3]])
     lo, hi = np.array([0.3, 0.3]), np.array([1.9, 1.6])
-    fig, (ax,) = new_figure(1, width=5.2, height=4.2)
+    fig = page.figure(1)
+    page.title(fig, 0, "a separating axis")
+    ax = page.axes(fig, 0, bottom=0.2, height=0.64)
     draw_box(ax, lo, hi, fill="#c7e9c0")
-    draw_triangles(ax, [tri])
+    draw_triangles(ax, [tri], lw=2.0)
     edge = tri[2] - tri[0]
-    axis = unit([edge[1], -edge[0]])  # the normal of the triangle's edge facing the box
-    base = np.array([0.6, -0.6])
-    ax.annotate("", xy=base + axis * 4.2, xytext=base - axis * 0.6,
-                arrowprops=dict(arrowstyle="-|>", color="black", lw=1.2))
+    axis = unit([edge[1], -edge[0]])  # the normal of the triangle's edge that faces the box
+    base = np.array([0.0, -0.75])     # the axis passes below both shapes
     box_pts = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    extent = []
     for pts, color in ((box_pts, BOX), (tri, SHAPE_EDGE)):
         s = (pts - base) @ axis
-        ax.plot(*np.c_[base + axis * s.min(), base + axis * s.max()], color=color, lw=6, alpha=0.8)
-    ax.text(2.4, -0.55, "their shadows on this axis\ndo not overlap: no overlap", fontsize=11)
-    ax.set_title("separating-axis test (touching counts as overlap)", fontsize=12)
-    frame(ax, np.array([-0.2, -1.0]), np.array([4.6, 2.6]), pad=0.1)
+        for k in (s.argmin(), s.argmax()):  # the lines that cast the shadow, at right angles to the axis
+            foot = base + axis * s[k]
+            ax.plot(*np.c_[pts[k], foot], color=color, lw=2.0, ls=(0, (2, 2)), zorder=2)
+        ax.plot(*np.c_[base + axis * s.min(), base + axis * s.max()], color=color, lw=12, alpha=0.85,
+                solid_capstyle="butt", zorder=3)
+        extent += [s.min(), s.max()]
+    start, end = base + axis * (min(extent) - 0.35), base + axis * (max(extent) + 0.5)
+    ax.annotate("", xy=end, xytext=start, annotation_clip=False, zorder=4,
+                arrowprops=dict(arrowstyle="-|>,head_length=0.7,head_width=0.35", color="black", lw=2.0,
+                                shrinkA=0, shrinkB=0))
+    ax.text(*(end + np.array([0.0, 0.18])), "axis", ha="right", va="bottom", fontsize=SMALL_PT)
+    frame(ax, np.array([-0.2, -0.95]), np.array([4.3, 2.4]), pad=0.05)
+    page.note(fig, 0, 0.5, 0.17, "shadows apart on the axis:\nthe shapes do not touch", ha="center",
+              linespacing=1.15)
     return save(fig, "octree_1", "separating_axis.png")
 
 
@@ -354,26 +385,27 @@ def octree_ray_statuses():
     leaves = [(c[0], c[1], c[4]) for c in build_quadtree(tris, lo, hi, 3, leaf_size=2) if c[3]]
     ys = np.linspace(lo[1] - 0.6, hi[1] + 0.3, 91)
     cases = [("missed_root", "misses the root: ignored"),
-             ("missed_nodes", "enters the root,\nbut no cell with triangles"),
-             ("missed_triangles", "enters cells with triangles,\ntests them, hits none"),
+             ("missed_nodes", "enters only empty space"),
+             ("missed_triangles", "tests triangles, hits none"),
              ("hit_object", "hits a triangle")]
-    fig, axes = new_figure(2, 2, width=4.2, height=4.2)
-    for ax, (status, title) in zip(axes, cases):
+    fig = page.figure(len(cases))
+    for tile, (status, title) in enumerate(cases):
         o, d = find_ray(status, -2.2, ys, tris, lo, hi, leaves)
         _, tested = ray_status(o, d, tris, lo, hi, leaves)
         t_hit = ray_triangles(o, d, tris)
-        draw_triangles(ax, tris, lw=0.5)
-        draw_box(ax, lo, hi, lw=1.4)
+        page.title(fig, tile, status)
+        page.note(fig, tile, 0.5, 0.885, title, ha="center")
+        ax = page.axes(fig, tile, bottom=0.12, height=0.66)
+        frame(ax, np.array([-2.3, ys.min()]), np.array([hi[0], ys.max()]), pad=0.08)
         for clo, chi, ids in leaves:
             span = ray_box(o, d, clo, chi)
             entered = span is not None and ids and (t_hit is None or span[0] <= t_hit)
-            draw_box(ax, clo, chi, color="#999999", lw=0.6, fill="#fdd49e" if entered else None)
-        draw_triangles(ax, [tris[i] for i in tested], face="#fd8d3c", lw=0.5)
+            draw_box(ax, clo, chi, color="#999999", lw=1.0, fill=ENTERED if entered else None)
+        draw_tested(ax, tris, tested, lw=0.8)
+        draw_box(ax, lo, hi, lw=2.5)
         draw_ray(ax, o, d, 4.4, stop=t_hit)
         mark_entry(ax, o, d, lo, hi)
-        ax.set_title(f"{status}\n{title}", fontsize=11)
-        ax.text(hi[0] + 0.05, lo[1], f"triangles\ntested:\n{len(tested)} of {len(tris)}", fontsize=10)
-        frame(ax, np.array([-2.3, lo[1] - 0.1]), hi + np.array([0.9, 0.0]), pad=0.08)
+        page.note(fig, tile, 0.5, 0.1, f"{len(tested)} of {len(tris)} triangles tested", ha="center")
     return save(fig, "octree_2", "ray_statuses.png")
 
 
@@ -387,31 +419,35 @@ def bvh_boxes_and_tree():
         return (np.min([boxes[n][0] for n in names], axis=0), np.max([boxes[n][1] for n in names], axis=0))
 
     left, right, root = union("A", "B"), union("C", "D"), union("A", "B", "C", "D")
-    fig, (a, b) = new_figure(2, width=4.8, height=3.8)
+    fig = page.figure(2)
+    page.title(fig, 0, "boxes around groups")
+    a = page.axes(fig, 0, height=0.82)
     for name, pts in shapes.items():
-        draw_triangles(a, fan_triangles(pts), lw=0.4)
-        a.text(*pts.mean(axis=0), name, ha="center", va="center", fontsize=12, weight="bold")
-        draw_box(a, *boxes[name], color=DEPTH_COLORS[2], lw=1.2)
-    draw_box(a, left[0] - 0.08, left[1] + 0.08, color=DEPTH_COLORS[1], lw=1.8)
-    draw_box(a, right[0] - 0.08, right[1] + 0.08, color=DEPTH_COLORS[1], lw=1.8)
-    draw_box(a, root[0] - 0.18, root[1] + 0.18, color=DEPTH_COLORS[0], lw=2.2)
-    a.set_title("boxes around groups")
-    frame(a, root[0], root[1], pad=0.3)
+        draw_triangles(a, fan_triangles(pts), lw=0.8)
+        a.text(*pts.mean(axis=0), name, ha="center", va="center", fontsize=TEXT_PT, weight="bold")
+        draw_box(a, *boxes[name], color=DEPTH_COLORS[2], lw=2.0)
+    draw_box(a, left[0] - 0.08, left[1] + 0.08, color=DEPTH_COLORS[1], lw=2.5)
+    draw_box(a, right[0] - 0.08, right[1] + 0.08, color=DEPTH_COLORS[1], lw=2.5)
+    draw_box(a, root[0] - 0.18, root[1] + 0.18, color=DEPTH_COLORS[0], lw=3.0)
+    frame(a, root[0], root[1], pad=0.25)
+    page.title(fig, 1, "the tree they form")
+    b = page.axes(fig, 1, bottom=0.14, height=0.68, picture=False)
+    b.axis("off")
     nodes = {"root": (0, 2), "L": (-1.2, 1), "R": (1.2, 1), "A": (-1.8, 0), "B": (-0.6, 0), "C": (0.6, 0),
              "D": (1.8, 0)}
     colors = {"root": DEPTH_COLORS[0], "L": DEPTH_COLORS[1], "R": DEPTH_COLORS[1]}
     for parent, kids in (("root", "LR"), ("L", "AB"), ("R", "CD")):
         for k in kids:
-            b.plot(*zip(nodes[parent], nodes[k]), color="#555555", lw=1.2, zorder=1)
+            b.plot(*zip(nodes[parent], nodes[k]), color="#555555", lw=2.0, zorder=1)
     for name, (x, y) in nodes.items():
-        b.add_patch(Rectangle((x - 0.35, y - 0.25), 0.7, 0.5, facecolor="white", lw=2,
+        wide = 0.5 if name in ("root", "L", "R") else 0.27
+        b.add_patch(Rectangle((x - wide, y - 0.27), 2 * wide, 0.54, facecolor="white", lw=3,
                               edgecolor=colors.get(name, DEPTH_COLORS[2]), zorder=2))
         b.text(x, y, "A+B" if name == "L" else "C+D" if name == "R" else name, ha="center", va="center",
                zorder=3)
-    b.text(0, -0.7, "leaves hold triangles", ha="center", fontsize=11)
-    b.set_title("the tree: every object in one leaf")
-    b.set_xlim(-2.4, 2.4)
-    b.set_ylim(-1.0, 2.5)
+    b.set_xlim(-2.2, 2.2)
+    b.set_ylim(-0.4, 2.4)
+    page.note(fig, 1, 0.5, 0.12, "leaves hold the triangles", ha="center")
     return save(fig, "bvh_1", "bvh_tree.png")
 
 
@@ -419,30 +455,37 @@ def bvh_traversal():
     """Front-to-back traversal with early exit: once a hit is closer than a box, that box is skipped."""
     near, far = blob((-0.5, 0.0), 0.55, 9, 5), blob((1.4, 0.25), 0.55, 9, 6)
     tris_near, tris_far = fan_triangles(near), fan_triangles(far)
-    o, d = np.array([-2.2, -0.05]), unit([1, 0.03])
+    o, d = np.array([-1.7, -0.05]), unit([1, 0.03])
     t_hit = ray_triangles(o, d, tris_near)
-    fig, (ax,) = new_figure(1, width=6.4, height=3.6)
-    draw_triangles(ax, tris_near + tris_far, lw=0.5)
+    fig = page.figure(1)
+    page.title(fig, 0, "closest box first,\nthen stop early")
+    ax = page.axes(fig, 0, bottom=0.3, height=0.46)
+    frame(ax, np.array([-1.8, -0.7]), np.array([2.1, 1.05]), pad=0.03)
+    draw_triangles(ax, tris_near + tris_far, lw=0.8)
     draw_box(ax, near.min(axis=0), near.max(axis=0), color=DEPTH_COLORS[1])
     draw_box(ax, far.min(axis=0), far.max(axis=0), color=MISS, ls="--")
     draw_ray(ax, o, d, 5, stop=t_hit)
     mark_entry(ax, o, d, near.min(axis=0), near.max(axis=0), color=DEPTH_COLORS[1])
-    ax.text(-0.9, -0.9, "1. nearer box first:\n    hit found here", fontsize=11)
-    ax.text(0.9, -0.9, "2. this box starts behind\n    the hit: skipped", fontsize=11)
-    ax.set_title("closest box first, then stop early")
-    frame(ax, np.array([-2.3, -1.1]), np.array([2.1, 1.0]), pad=0.1)
+    for label, (x, y), color in (("1", (near.min(axis=0)[0], near.max(axis=0)[1]), DEPTH_COLORS[1]),
+                                 ("2", (far.min(axis=0)[0], far.max(axis=0)[1]), MISS)):
+        ax.text(x, y + 0.06, label, ha="left", va="bottom", fontsize=TEXT_PT, weight="bold", color=color)
+    page.note(fig, 0, 0.04, 0.27, "1  nearer box: hit found\n2  starts behind the hit:\n    skipped", linespacing=1.2)
     return save(fig, "bvh_2", "bvh_traversal.png")
 
 
 def race_work_per_ray():
-    """What one ray tests under each structure (the race level's four contestants)."""
+    """What one ray tests under each structure (the race level's contestants): the tested triangles
+    orange, in every panel."""
     tris = sample_scene()
     lo, hi = square_around(np.vstack(tris), margin=0.2)
     o, d = np.array([lo[0] - 0.4, -0.35]), unit([1, 0.12])
-    fig, axes = new_figure(2, 2, width=3.4, height=3.5)
     t_hit = ray_triangles(o, d, tris)
     shape_lo, shape_hi = np.vstack(tris).min(axis=0), np.vstack(tris).max(axis=0)
-    for ax, name in zip(axes, ("none", "aabb", "octree", "bvh")):
+    names = ("none", "aabb", "octree", "bvh")
+    fig = page.figure(len(names))
+    for tile, name in enumerate(names):
+        ax = page.axes(fig, tile, bottom=0.02, height=0.78)
+        frame(ax, lo - 0.5, hi, pad=0.05)
         if name == "none":
             tested = set(range(len(tris)))
         elif name == "aabb":
@@ -455,65 +498,64 @@ def race_work_per_ray():
                 if not is_leaf:
                     continue
                 span = ray_box(o, d, clo, chi)
-                hit = span is not None and (t_hit is None or span[0] <= t_hit)
-                draw_box(ax, clo, chi, color=DEPTH_COLORS[dep % 6], lw=0.7,
-                         fill="#fdd49e" if hit and ids else None)
-                if hit:
+                entered = span is not None and (t_hit is None or span[0] <= t_hit)
+                draw_box(ax, clo, chi, color=DEPTH_COLORS[dep % 6], lw=1.5, fill=ENTERED if entered and ids else None)
+                if entered:
                     tested.update(ids)
-        draw_triangles(ax, [tris[i] for i in range(len(tris))], lw=0.4,
-                       face=SHAPE_FILL if name != "none" else "#fdd49e")
+        draw_tested(ax, tris, tested, lw=0.8)
         draw_ray(ax, o, d, 4, stop=t_hit)
-        ax.set_title(f"{name}\n{len(tested)} of {len(tris)} triangles tested", fontsize=11)
-        frame(ax, lo - 0.4, hi, pad=0.05)
+        page.title(fig, tile, f"{name}")
+        page.note(fig, tile, 0.5, 0.89, f"{len(tested)} of {len(tris)} triangles tested", ha="center")
     return save(fig, "race", "work_per_ray.png")
 
 
 def leaking_ray():
     """Two triangles share an edge; a ray through that edge must hit exactly one of them."""
     a, b, c, e = np.array([0, 0.0]), np.array([2, 0.0]), np.array([1, 1.6]), np.array([1, -1.6])
-    fig, (l, r) = new_figure(2, width=4.2, height=4.2)
-    for ax, title, verdict, color in (
-            (l, "Möller–Trumbore", "each triangle computes the edge\nwith its own rounding: both say\n"
-             "'outside' -> the ray leaks", RAY),
-            (r, "watertight (Woop et al.)", "edge functions are shared\nand exact at ties: one\n"
-             "triangle always takes it", BOX)):
-        draw_triangles(ax, [np.array([a, b, c]), np.array([a, e, b])], lw=1.5)
-        ax.plot(*zip(a, b), color="black", lw=2.5)
-        ax.plot(1.15, 0.0, "x" if color == RAY else "o", color=color, ms=14, mew=3)
-        ax.text(1.3, 0.1, "ray hits the\nshared edge\n(seen head-on)", fontsize=10)
-        ax.text(-0.1, -2.55, verdict, fontsize=10.5, color=color)
-        ax.set_title(title)
-        frame(ax, np.array([-0.1, -2.6]), np.array([2.1, 1.7]), pad=0.1)
+    fig = page.figure(2)
+    for tile, title, verdict, color in (
+            (0, "Möller–Trumbore", "each triangle rounds the\nedge its own way: both\nsay 'outside', it leaks", RAY),
+            (1, "watertight test", "the edge is exact and\nshared: one triangle\nalways takes the ray", BOX)):
+        page.title(fig, tile, title)
+        ax = page.axes(fig, tile, bottom=0.3, height=0.56)
+        draw_triangles(ax, [np.array([a, b, c]), np.array([a, e, b])], lw=2.0)
+        ax.plot(*zip(a, b), color="black", lw=3.5)
+        ax.plot(1.15, 0.0, "x" if color == RAY else "o", color=color, ms=20, mew=4, zorder=5)
+        ax.annotate("the ray,\nhead-on", (1.15, 0.0), xytext=(1.55, 0.75), fontsize=SMALL_PT, ha="left",
+                    arrowprops=dict(arrowstyle="-", color="#555555", lw=1.5))
+        frame(ax, np.array([-0.1, -1.7]), np.array([2.9, 1.7]), pad=0.05)
+        page.note(fig, tile, 0.5, 0.27, verdict, ha="center", color=color, linespacing=1.15)
     return save(fig, "where_methods_fail", "leaking_ray.png")
 
 
 def shadow_acne():
     """A shadow ray from a surface point: a fixed epsilon fails far from the origin, an ulp offset does not."""
-    fig, (l, r) = new_figure(2, width=4.4, height=3.8)
-    xs = np.linspace(0, 4, 9)
-    for ax, title, robust in ((l, "fixed epsilon = 1e-4", False), (r, "robust offset (in ulps)", True)):
-        ax.fill_between([0, 4], -1, 0, color=SHAPE_FILL)
-        ax.plot([0, 4], [0, 0], color=SHAPE_EDGE, lw=2)
+    fig = page.figure(2)
+    xs = np.linspace(0, 4, 7)
+    for tile, title, robust, verdict in (
+            (0, "fixed epsilon 1e-4", False,
+             "at scale 10,000 a float\nsteps by 0.001 > 1e-4:\nstarts below the surface\nshadow themselves"),
+            (1, "robust offset", True, "the offset grows with\nthe coordinates: every\nstart is on the light side")):
+        page.title(fig, tile, title)
+        ax = page.axes(fig, tile, bottom=0.36, height=0.5)
+        ax.fill_between([-0.2, 4.6], -1, 0, color=SHAPE_FILL)
+        ax.plot([-0.2, 4.6], [0, 0], color=SHAPE_EDGE, lw=3)
         for i, x in enumerate(xs):
             # Far from the origin a float cannot hold the exact hit point: it is rounded above or below.
             rounding = 0.0 if robust else (-0.18 if i % 2 else 0.1)
             start = (0.14 if robust else 0.02) + rounding
             self_hit = start < 0
-            ax.plot(x, start, "o", color=RAY if self_hit else BOX, ms=6)
+            ax.plot(x, start, "o", color=RAY if self_hit else BOX, ms=10, zorder=5)
             # The shadow ray heads for the light; one that starts below the surface hits it at once.
             end = (x - 0.5 * start, 0.0) if self_hit else (x + 0.45, start + 0.9)
             ax.annotate("", xy=end, xytext=(x, start),
-                        arrowprops=dict(arrowstyle="-" if self_hit else "-|>", color=RAY if self_hit else BOX,
-                                        lw=1.6))
+                        arrowprops=dict(arrowstyle="-" if self_hit else "-|>,head_length=0.6,head_width=0.3",
+                                        color=RAY if self_hit else BOX, lw=2.5))
             if self_hit:
-                ax.plot(*end, "x", color=RAY, ms=9, mew=2.5)
-        ax.set_title(title)
-        ax.text(0.0, -0.8, "start points below the surface\nshadow themselves: dark speckles"
-                if not robust else "offset grows with the coordinates:\nalways on the light side",
-                fontsize=10.5)
+                ax.plot(*end, "x", color=RAY, ms=14, mew=3.5, zorder=6)
         ax.set_xlim(-0.2, 4.6)
-        ax.set_ylim(-1.0, 1.2)
-    fig.suptitle("at scene scale 10,000 a float's step is ~0.001: larger than 1e-4", fontsize=11)
+        ax.set_ylim(-0.6, 1.15)
+        page.note(fig, tile, 0.5, 0.33, verdict, ha="center", linespacing=1.15)
     return save(fig, "where_methods_fail", "shadow_acne.png")
 
 
@@ -522,42 +564,43 @@ def bvh_leaves(triangles, leaf_size=2):
     return [(lo, hi, ids) for lo, hi, _, is_leaf, ids in build_bvh(triangles, leaf_size=leaf_size) if is_leaf]
 
 
-def draw_tested_rays(ax, rays, triangles, leaves):
-    """Each ray (origin, direction, label position) with the number of triangles it tests (computed)."""
+def draw_tested_rays(fig, ax, rays, triangles, leaves):
+    """Each ray (origin, direction, name) drawn, and under the picture its name with the number of
+    triangles it tests (computed), in its colour: wasted tests red."""
     lo = np.vstack(triangles).min(axis=0)
     hi = np.vstack(triangles).max(axis=0)
-    for origin, direction, where in rays:
+    for i, (origin, direction, name) in enumerate(rays):
         status, tested = ray_status(origin, direction, triangles, lo, hi, leaves)
         t_hit = ray_triangles(origin, direction, triangles)
-        color = RAY if len(tested) > 2 or (tested and status != "hit_object") else BOX  # wasted tests in red
+        color = RAY if len(tested) > 2 or (tested and status != "hit_object") else BOX
         draw_ray(ax, origin, direction, 6.0, color=color, stop=t_hit)
-        ax.text(*where, f"{len(tested)} tested" + (", hit" if status == "hit_object" else ", missed"),
-                fontsize=10.5, color=color)
+        outcome = "hit" if status == "hit_object" else "missed"
+        page.note(fig, 0, 0.5, 0.2 - 0.085 * i, f"{name}: {len(tested)} tested, {outcome}", ha="center", color=color)
 
 
 def silhouette_work():
     """Rays through the middle stop at their first hit; rays beside the outline enter leaf after leaf."""
     tris = fan_triangles(blob((0.0, 0.0), 1.0, 16, 7))
     leaves = bvh_leaves(tris)
-    fig, (ax,) = new_figure(1, width=6.4, height=4.0)
-    draw_triangles(ax, tris, lw=0.5)
+    fig = page.figure(1)
+    page.title(fig, 0, "beside the outline:\nno hit to stop at")
+    ax = page.axes(fig, 0, bottom=0.24, height=0.56)
+    draw_triangles(ax, tris, lw=0.8)
     for lo, hi, _ in leaves:
-        draw_box(ax, lo, hi, color=DEPTH_COLORS[2], lw=0.8)
+        draw_box(ax, lo, hi, color=DEPTH_COLORS[2], lw=1.5)
     outline = np.vstack(tris)
     top = outline[:, 1].max()
     lo, hi = outline.min(axis=0), outline.max(axis=0)
 
     def beside(ray):  # rays that miss first, then the most triangles tested
-        status, tested = ray_status(np.array([-2.6, ray[0]]), unit([1, ray[1]]), tris, lo, hi, leaves)
+        status, tested = ray_status(np.array([-2.2, ray[0]]), unit([1, ray[1]]), tris, lo, hi, leaves)
         return status != "hit_object", len(tested)
 
     # The ray beside the outline: of the rays that miss, the one that tests the most triangles.
     y, slope = max(((y, k) for y in np.linspace(0.0, top + 0.6, 60) for k in np.linspace(-0.2, 0.0, 21)), key=beside)
-    rays = [(np.array([-2.6, 0.05]), unit([1, 0.0]), (-2.6, 0.15)),
-            (np.array([-2.6, y]), unit([1, slope]), (-2.6, y + 0.12))]
-    draw_tested_rays(ax, rays, tris, leaves)
-    ax.set_title("the silhouette: a ray just beside the object hits nothing that stops it")
-    frame(ax, np.array([-2.7, -1.1]), np.array([2.7, max(top, y) + 0.35]), pad=0.05)
+    rays = [(np.array([-2.2, 0.05]), unit([1, 0.0]), "middle"), (np.array([-2.2, y]), unit([1, slope]), "beside")]
+    frame(ax, np.array([-2.3, -1.1]), np.array([1.6, max(top, y) + 0.2]), pad=0.05)
+    draw_tested_rays(fig, ax, rays, tris, leaves)
     return save(fig, "where_work_goes", "silhouette.png")
 
 
@@ -569,19 +612,20 @@ def grazing_ray():
         ya, yb = 0.06 * np.sin(3 * a), 0.06 * np.sin(3 * b)
         tris += [np.array([[a, ya], [b, yb], [a, -0.3]]), np.array([[b, yb], [b, -0.3], [a, -0.3]])]
     leaves = bvh_leaves(tris)
-    fig, (ax,) = new_figure(1, width=6.4, height=3.4)
-    draw_triangles(ax, tris, lw=0.5)
+    fig = page.figure(1)
+    page.title(fig, 0, "grazing: a ray along the\nsurface, leaf after leaf")
+    ax = page.axes(fig, 0, bottom=0.24, height=0.56)
+    draw_triangles(ax, tris, lw=0.8)
     for lo, hi, _ in leaves:
-        draw_box(ax, lo, hi, color=DEPTH_COLORS[2], lw=0.8)
+        draw_box(ax, lo, hi, color=DEPTH_COLORS[2], lw=1.5)
     ground = np.vstack(tris)
     # The grazing ray: of the nearly flat rays just above the ground, the one that tests the most.
     slope = max(np.linspace(-0.06, 0.0, 120), key=lambda k: len(ray_status(
         np.array([-2.3, 0.1]), unit([1.0, k]), tris, ground.min(axis=0), ground.max(axis=0), leaves)[1]))
-    rays = [(np.array([0.3, 1.3]), unit([0.05, -1.0]), (0.45, 1.1)),
-            (np.array([-2.3, 0.1]), unit([1.0, slope]), (-2.3, 0.25))]
-    draw_tested_rays(ax, rays, tris, leaves)
-    ax.set_title("grazing: a ray along the surface crosses leaf after leaf")
-    frame(ax, np.array([-2.4, -0.4]), np.array([2.2, 1.4]), pad=0.05)
+    rays = [(np.array([0.3, 1.3]), unit([0.05, -1.0]), "head-on"),
+            (np.array([-2.3, 0.1]), unit([1.0, slope]), "grazing")]
+    frame(ax, np.array([-2.4, -0.4]), np.array([2.1, 1.4]), pad=0.05)
+    draw_tested_rays(fig, ax, rays, tris, leaves)
     return save(fig, "where_work_goes", "grazing.png")
 
 
@@ -591,17 +635,17 @@ def thin_triangle_box():
     fat = fan_triangles(blob((1.0, -0.55), 0.4, 9, 4))
     tris = thin + fat
     leaves = [(t.min(axis=0), t.max(axis=0), [i]) for i, t in enumerate(tris)]  # a leaf per triangle
-    fig, (ax,) = new_figure(1, width=6.4, height=4.2)
-    draw_triangles(ax, fat, lw=0.5)
-    draw_triangles(ax, thin, face="#fdd49e", edge="#e6550d", lw=1.2)
-    draw_box(ax, thin[0].min(axis=0), thin[0].max(axis=0), color="#e6550d", lw=1.5, ls="--")
+    fig = page.figure(1)
+    page.title(fig, 0, "a long thin triangle:\na big, empty box")
+    ax = page.axes(fig, 0, bottom=0.24, height=0.56)
+    draw_triangles(ax, fat, lw=0.8)
+    draw_triangles(ax, thin, face=ENTERED, edge="#e6550d", lw=2.0)
+    draw_box(ax, thin[0].min(axis=0), thin[0].max(axis=0), color="#e6550d", lw=2.5, ls="--")
     along = unit(thin[0][1] - thin[0][0])
-    rays = [(np.array([-2.4, -0.85]), along, (-2.6, -1.05)),   # beside the triangle, all through its box
-            (np.array([2.6, -0.5]), unit([-1, 0.0]), (1.9, -0.4))]
-    draw_tested_rays(ax, rays, tris, leaves)
-    ax.text(-1.7, 0.9, "the thin triangle's box:\nalmost all empty", fontsize=10.5, color="#e6550d")
-    ax.set_title("a long thin triangle: a big box that rays enter and miss")
-    frame(ax, np.array([-2.7, -1.4]), np.array([2.2, 1.45]), pad=0.05)
+    rays = [(np.array([-2.4, -0.85]), along, "beside it"),   # beside the triangle, all through its box
+            (np.array([2.6, -0.5]), unit([-1, 0.0]), "elsewhere")]
+    frame(ax, np.array([-2.5, -1.3]), np.array([2.7, 1.45]), pad=0.05)
+    draw_tested_rays(fig, ax, rays, tris, leaves)
     return save(fig, "where_work_goes", "thin_triangles.png")
 
 
@@ -610,5 +654,7 @@ DIAGRAMS = [aabb_bounding_box, aabb_ray_cases, quadtree_depths, vertex_rule_vs_s
             shadow_acne, silhouette_work, grazing_ray, thin_triangle_box]
 
 if __name__ == "__main__":
+    wanted = sys.argv[1:]
     for draw in DIAGRAMS:
-        print(draw())
+        if not wanted or draw.__name__ in wanted:
+            print(draw())

@@ -1,24 +1,13 @@
 """The Levels panel in the 3D viewport's sidebar tab "raylab": the list of levels, the open level's
 title, goal, text with its diagrams, self-ticking tasks and the mesh swap with the mesh's credit."""
-import os
 
 import bpy
-import bpy.utils.previews
 
-from . import levels, text_fit
+from . import diagrams, levels, text_fit
 
-_previews = None  # diagram thumbnails, loaded on first draw (the panel draws only with a window)
 TASK_SECTIONS = []  # draw(layout, context) hooks drawn under the tasks, before the controls
 
 
-def diagram_icon(path):
-    global _previews
-    if _previews is None:
-        _previews = bpy.utils.previews.new()
-    if path not in _previews:
-        # Reading the size makes Blender load the picture now, not on a later redraw.
-        _previews.load(path, path, 'IMAGE').image_size[:]
-    return _previews[path].icon_id
 
 
 def current_level(context):
@@ -89,7 +78,6 @@ class RAYLAB_PT_level_text(_OpenLevelPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        ui_scale = context.preferences.view.ui_scale
         for block in current_level(context).blocks:
             kind = block[0]
             if kind == "heading":
@@ -100,14 +88,7 @@ class RAYLAB_PT_level_text(_OpenLevelPanel, bpy.types.Panel):
             elif kind == "bullet":
                 text_fit.label(layout, context, block[1], 'DOT')
             else:
-                _, path, caption = block
-                # template_icon draws a square: fill the sidebar's width with it.
-                layout.template_icon(icon_value=diagram_icon(path),
-                                     scale=max(6.0, context.region.width / (20.0 * ui_scale) - 1.0))
-                row = layout.row()
-                row.alignment = 'CENTER'
-                row.operator(RAYLAB_OT_level_show_diagram.bl_idname, text=caption or "Open diagram",
-                             icon='IMAGE_DATA', emboss=False).path = path
+                diagrams.draw(layout, context, *block[1:])
 
 
 class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
@@ -165,30 +146,9 @@ class RAYLAB_PT_level_list(_OpenLevelPanel, bpy.types.Panel):
         _level_buttons(self.layout, context, current_level(context))
 
 
-class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
-    """Show this diagram full size in a new window"""
-    bl_idname = "raylab.level_show_diagram"
-    bl_label = "Show Diagram"
-
-    path: bpy.props.StringProperty(subtype="FILE_PATH", description="The diagram picture to show")
-
-    def execute(self, context):
-        if not os.path.isfile(self.path):
-            self.report({'ERROR'}, f"raylab: no diagram at {self.path}")
-            return {'CANCELLED'}
-        image = bpy.data.images.load(self.path, check_existing=True)
-        # render.view_show opens a new window with an image editor; show the diagram in it instead.
-        bpy.ops.render.view_show('INVOKE_DEFAULT')
-        area = next((a for w in context.window_manager.windows for a in w.screen.areas if a.type == 'IMAGE_EDITOR'),
-                    None)
-        if area is not None:
-            area.spaces.active.image = image
-        return {'FINISHED'}
-
-
 # Sub-panels draw in the order they are registered: the tasks right under the goal, where a student sees
 # them tick while working, and the tutorial's text below them.
-CLASSES = (RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_level_tasks, RAYLAB_PT_level_text,
+CLASSES = (diagrams.RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_level_tasks, RAYLAB_PT_level_text,
            RAYLAB_PT_level_mesh, RAYLAB_PT_level_list)
 
 
@@ -198,9 +158,6 @@ def register():
 
 
 def unregister():
-    global _previews
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)
-    if _previews is not None:
-        bpy.utils.previews.remove(_previews)
-        _previews = None
+    diagrams.release()

@@ -1,0 +1,186 @@
+"""The level diagrams in the Tutorial panel: each picture as wide as the panel, its caption wrapped under
+it, and the full-size view one click away (Show Diagram).
+
+A panel shows a picture only as a preview icon (UILayout.template_icon), drawn in a square: a picture of
+another shape is fitted into the square with blank bands beside it. So every diagram is drawn as a column
+of square tiles (tools/panel_figure.py), shown here as that many squares one under the other, each as wide
+as the panel's column. Blender's own preview of a file is a thumbnail of at most 256 px, scaled again to
+the square; these previews are made here from the picture's own pixels, resampled once to the size
+Blender draws the square at, so it draws them pixel for pixel.
+"""
+import os
+
+import bpy
+import bpy.utils.previews
+import numpy as np
+
+from . import text_fit
+
+PREVIEW_PAD = 4      # pixels Blender leaves on each side of a preview inside its square (interface_widgets)
+CACHE_PICTURES = 12  # pictures kept in memory (a level shows at most six)
+
+_previews = None
+_pictures = {}       # path -> (H, W, 4) uint8, bottom row first (Blender's order), or the error loading it
+_pending = set()     # paths the next timer tick loads
+_tiles = {}          # path -> (side in pixels, [icon id of each tile, top first])
+
+
+def unit(context):
+    """U.widget_unit in pixels: 18 units at the UI's scale, rounded in single precision as Blender does,
+    plus a line's width either side (wm_window.c)."""
+    system = context.preferences.system
+    units = float(np.float32(18.0) * np.float32(system.ui_scale))
+    return int(np.floor(units + 0.5)) + 2 * int(system.pixel_size)
+
+
+def column_width(context):
+    """The width of a panel's column in the sidebar, in pixels, as Blender lays it out: the region less
+    the category tabs (a unit), the panels' margins (0.4 unit each side) and the panel's own padding
+    (8 pixels at the UI's scale, each side). Measured against the drawn squares, tests/gui."""
+    u = unit(context)
+    panels = int(context.region.width - u - 0.8 * u)
+    return panels - 2 * int(8.0 * context.preferences.system.ui_scale)
+
+
+def tile_side(context):
+    """The side of the square Blender draws a tile in: the column's width less the preview's padding."""
+    return max(16, column_width(context) - 2 * PREVIEW_PAD)
+
+
+def _tag_redraw():
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == 'VIEW_3D':
+                area.tag_redraw()
+
+
+def _load_pending():
+    """Reads the pictures the panel asked for. A timer does it, not the panel's draw, which should leave
+    the file's data alone; the image is only borrowed, removed again at once: the file stays as it was."""
+    for path in sorted(_pending):
+        if len(_pictures) >= CACHE_PICTURES:
+            _pictures.pop(next(iter(_pictures)))
+        try:
+            image = bpy.data.images.load(path, check_existing=False)
+        except RuntimeError as error:
+            _pictures[path] = str(error)
+            continue
+        try:
+            width, height = image.size
+            pixels = np.empty(width * height * 4, np.float32)
+            image.pixels.foreach_get(pixels)
+        finally:
+            bpy.data.images.remove(image)
+        _pictures[path] = (pixels.reshape(height, width, 4) * 255.0 + 0.5).astype(np.uint8)
+    _pending.clear()
+    _tag_redraw()
+    return None
+
+
+def box_weights(size_in, size_out):
+    """(size_out, size_in): each output pixel the mean of the input pixels it covers (area averaging, so
+    a picture made smaller keeps its thin lines and its text instead of skipping pixels)."""
+    edges = np.linspace(0.0, size_in, size_out + 1)
+    first, last = edges[:-1, None], edges[1:, None]
+    index = np.arange(size_in)[None, :]
+    weights = np.clip(np.minimum(last, index + 1) - np.maximum(first, index), 0.0, None)
+    return weights / weights.sum(axis=1, keepdims=True)
+
+
+def tiles(picture, side):
+    """The picture's square tiles, top first, each resampled to side x side: (side, side, 4) float32,
+    bottom row first. A picture is as many squares tall as it is wide; a leftover strip is dropped."""
+    height, width = picture.shape[:2]
+    count = max(1, height // width)
+    result = []
+    for k in range(count):
+        top = height - k * width  # rows count from the bottom
+        square = picture[max(0, top - width):top].astype(np.float32) / 255.0
+        if side < width:
+            rows, cols = box_weights(square.shape[0], side), box_weights(width, side)
+            square = np.tensordot(np.tensordot(rows, square, axes=(1, 0)), cols, axes=(1, 1)).transpose(0, 2, 1)
+        result.append(np.ascontiguousarray(square, dtype=np.float32))
+    return result
+
+
+def tile_icons(context, path):
+    """The icon ids of the diagram's tiles at the panel's current width, or None while it loads, or the
+    error that kept it from loading."""
+    global _previews
+    picture = _pictures.get(path)
+    if picture is None:
+        _pending.add(path)
+        if not bpy.app.timers.is_registered(_load_pending):
+            bpy.app.timers.register(_load_pending, first_interval=0.0)
+        return None
+    if isinstance(picture, str):
+        return picture
+    side = min(tile_side(context), picture.shape[1])
+    made = _tiles.get(path)
+    if made is not None and made[0] == side:
+        return made[1]
+    if _previews is None:
+        _previews = bpy.utils.previews.new()
+    for name in [n for n in _previews.keys() if n.startswith(path + "|")]:
+        del _previews[name]  # the tiles of another width
+    icons = []
+    for k, square in enumerate(tiles(picture, side)):
+        preview = _previews.new(f"{path}|{side}|{k}")
+        preview.image_size = square.shape[1], square.shape[0]
+        preview.image_pixels_float.foreach_set(square.ravel())
+        icons.append(preview.icon_id)
+    _tiles[path] = (side, icons)
+    return icons
+
+
+def draw(layout, context, path, caption):
+    """The diagram at `path` as wide as the panel, its caption wrapped under it, and Full Size."""
+    icons = tile_icons(context, path)
+    column = layout.column(align=True)
+    if icons is None:
+        column.label(text="Loading the diagram...", icon='IMAGE_DATA')
+    elif isinstance(icons, str):
+        text_fit.label(column, context, f"This diagram did not load: {icons}", 'ERROR')
+    else:
+        # The square's height is the column's width (plus one pixel against rounding), so Blender draws
+        # the tile across the whole column; the squares touch, the previews' padding between them.
+        scale = (column_width(context) + 1) / unit(context)
+        for icon in icons:
+            column.template_icon(icon_value=icon, scale=scale)
+    if caption:
+        text_fit.label(layout, context, caption)
+    row = layout.row()
+    row.alignment = 'RIGHT'
+    row.operator(RAYLAB_OT_level_show_diagram.bl_idname, text="Full Size", icon='FULLSCREEN_ENTER').path = path
+
+
+class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
+    """Show this diagram full size in a new window"""
+    bl_idname = "raylab.level_show_diagram"
+    bl_label = "Show Diagram"
+
+    path: bpy.props.StringProperty(subtype="FILE_PATH", description="The diagram picture to show")
+
+    def execute(self, context):
+        if not os.path.isfile(self.path):
+            self.report({'ERROR'}, f"raylab: no diagram at {self.path}")
+            return {'CANCELLED'}
+        image = bpy.data.images.load(self.path, check_existing=True)
+        # render.view_show opens a new window with an image editor; show the diagram in it instead.
+        bpy.ops.render.view_show('INVOKE_DEFAULT')
+        area = next((a for w in context.window_manager.windows for a in w.screen.areas if a.type == 'IMAGE_EDITOR'),
+                    None)
+        if area is not None:
+            area.spaces.active.image = image
+        return {'FINISHED'}
+
+
+def release():
+    """Frees the previews and the pictures (the add-on's unregister)."""
+    global _previews
+    if _previews is not None:
+        bpy.utils.previews.remove(_previews)
+        _previews = None
+    _pictures.clear()
+    _tiles.clear()
+    _pending.clear()

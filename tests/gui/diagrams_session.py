@@ -1,0 +1,189 @@
+"""Runs inside a real Blender window (xvfb-run): opens levels and scrolls the sidebar's raylab tab down
+until a diagram of the Tutorial panel is in view, then takes a window screenshot.
+
+    xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup START.blend \
+        --python tests/gui/diagrams_session.py -- OUT_DIR LEVEL_ID/DIAGRAM.png[@UI_SCALE] [...]
+
+For every diagram: OUT_DIR/diagram_LEVEL_ID_DIAGRAM.png (the window) and OUT_DIR/diagram_..._tileK.png
+(each tile as the add-on handed it to Blender). OUT_DIR/diagrams_session.json holds, per diagram, the
+sidebar's rectangle in the window, where its tiles were found in the sidebar (as many as it holds), the
+column's width the add-on computed, the UI scale and the caption's lines as they were drawn; for the
+last one also what Full Size opened; or "error".
+"""
+import json
+import os
+import subprocess
+import sys
+import traceback
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, os.pardir, os.pardir))
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+sys.path.insert(0, HERE)
+from blender_window import call_in_main_window, click_raylab_tab, read_xwd, screenshot, show_sidebar, \
+    step_timer, view3d, watch_progress  # noqa: E402
+
+ARGS = sys.argv[sys.argv.index("--") + 1:]
+OUT_DIR, TARGETS = ARGS[0], ARGS[1:]
+os.makedirs(OUT_DIR, exist_ok=True)
+report = {"diagrams": {}}
+looks = [0]  # every look, for the watchdog: scrolling is progress too
+WATCHDOG_SECONDS = 240
+SCROLL_TRIES = 80
+
+
+def finish():
+    with open(os.path.join(OUT_DIR, "diagrams_session.json"), "w") as f:
+        json.dump(report, f)
+    bpy.ops.wm.quit_blender()
+
+
+try:
+    import raylab  # noqa: E402
+    from raylab.blender import diagrams, levels, text_fit  # noqa: E402
+except Exception:
+    report["error"] = traceback.format_exc()
+    finish()
+
+
+def sidebar_pixels():
+    """The sidebar as the X server shows it: (H, W, 3) floats, top row first."""
+    window, _, _, sidebar = view3d()
+    screen = read_xwd(subprocess.run(["xwd", "-root", "-silent"], capture_output=True, check=True).stdout)
+    top = screen.shape[0] - (window.y + window.height) + (window.height - sidebar.y - sidebar.height)
+    left = window.x + sidebar.x
+    return screen[top:top + sidebar.height, left:left + sidebar.width].astype(np.float32) / 255.0
+
+
+def find_tiles(pixels, expected, needed):
+    """[(difference, row, col)] of the top-left corner of the first `needed` expected tiles (top first,
+    (side, side, 3) floats, top row first) where the sidebar shows them, or None unless they are all in
+    view. A tile's top row is white (a diagram's margin) under the panel's darker background."""
+    side = expected[0].shape[0]
+    white = pixels.min(axis=-1) > 0.9
+    counts = white.sum(axis=1)
+    tops = [r for r in range(1, pixels.shape[0] - side + 1) if counts[r] > 0.9 * side and counts[r - 1] < 0.5 * side]
+    found = []
+    for tile in expected[:needed]:
+        best = None
+        for row in [r for r in tops if not found or r >= found[-1][1] + side]:  # each under the one before
+            left = int(np.flatnonzero(white[row]).min())
+            for col in range(max(0, left - 2), min(left + 3, pixels.shape[1] - side + 1)):
+                diff = float(np.abs(pixels[row:row + side, col:col + side] - tile).mean())
+                if best is None or diff < best[0]:
+                    best = (diff, row, col)
+        if best is None or best[0] > 0.03:
+            return None
+        found.append(best)
+    return found
+
+
+def region_context():
+    window, area, _, sidebar = view3d()
+    return bpy.context.temp_override(window=window, area=area, region=sidebar)
+
+
+def steps_for(target, first):
+    where, _, scale = target.partition("@")
+    level_id, name = where.split("/")
+    path = os.path.join(ROOT, "levels", level_id, "diagrams", name)
+    key = f"{level_id}_{os.path.splitext(name)[0]}" + (f"_scale{scale}" if scale else "")
+    state = {"tries": 0}
+
+    def open_level():
+        levels.open_level(bpy.context, level_id)
+        bpy.context.scene.raylab.spin = False
+        show_sidebar()
+
+    def to_top():
+        # After the tab is clicked (3.4 has no API for it, and the click's place depends on the scale).
+        bpy.context.preferences.view.ui_scale = float(scale or 1.0)
+        with region_context():
+            for _ in range(200):
+                bpy.ops.view2d.scroll_up()
+
+    def look():
+        """Scrolls a little at a time (a step per redraw) until the diagram's tiles are in view: all of
+        them, or as many as the sidebar can hold."""
+        looks[0] += 1
+        made = diagrams._tiles.get(path)
+        calls = 1
+        if made is not None:
+            side = made[0]
+            expected = [np.asarray(t[::-1, :, :3]) for t in diagrams.tiles(diagrams._pictures[path], side)]
+            _, _, _, sidebar = view3d()
+            needed = min(len(expected), 3, sidebar.height // (side + 2 * diagrams.PREVIEW_PAD))
+            found = find_tiles(sidebar_pixels(), expected, needed)
+            if found is not None:
+                shoot(made, expected, found)
+                return
+            # A scroll moves 40 pixels (Blender's view2d.scroll_down): steps of under half the room the
+            # tiles leave in the sidebar cannot jump past the place where they are all in view.
+            calls = max(1, (sidebar.height - needed * (side + 2 * diagrams.PREVIEW_PAD + 1)) // 80)
+        state["tries"] += 1
+        if state["tries"] > SCROLL_TRIES:
+            raise RuntimeError(f"{target}: the diagram never came into view")
+        with region_context():
+            for _ in range(calls):
+                bpy.ops.view2d.scroll_down()
+        STEPS.insert(0, look)
+
+    def shoot(made, expected, found):
+        from matplotlib import image as mpimg
+        window, _, _, sidebar = view3d()
+        caption = next(b[2] for b in levels.find_level(level_id).blocks if b[0] == "image" and b[1] == path)
+        text_fit.RECORD = []  # the lines the screenshot's redraw draws
+        screenshot(os.path.join(OUT_DIR, f"diagram_{key}.png"))
+        drawn, text_fit.RECORD = text_fit.RECORD, None
+        for k, tile in enumerate(expected):
+            mpimg.imsave(os.path.join(OUT_DIR, f"diagram_{key}_tile{k}.png"), tile)
+        with region_context():
+            column_width, unit = diagrams.column_width(bpy.context), diagrams.unit(bpy.context)
+            # A label's text gets the column less Blender's padding around it (text_fit's measure of it).
+            label_room = column_width - text_fit.UNIT * text_fit.scale(bpy.context) * text_fit.TEXT_PADDING
+        report["diagrams"][target] = dict(
+            key=key, window_height=window.height,
+            sidebar=dict(x=sidebar.x, y=sidebar.y, width=sidebar.width, height=sidebar.height),
+            tiles=[dict(row=r, col=c, difference=d) for d, r, c in found], tile_count=len(expected), side=made[0],
+            column_width=column_width, label_room=label_room, unit=unit,
+            ui_scale=bpy.context.preferences.system.ui_scale,
+            tries=state["tries"], caption=caption,
+            # The panel is drawn twice for the screenshot: its lines once each.
+            caption_lines=list(dict.fromkeys((line, measured, room) for line, measured, room in drawn
+                                             if line and line in caption)))
+
+    def show_full_size():
+        """Full Size, as its button runs it: the diagram in an image editor in a new window."""
+        bpy.context.preferences.view.ui_scale = 1.0
+        windows = len(bpy.context.window_manager.windows)
+        call_in_main_window(bpy.ops.raylab.level_show_diagram, path=path)
+        report["diagrams"][target]["windows_before_full_size"] = windows
+
+    def full_size_shown():
+        wm = bpy.context.window_manager
+        shown = [a.spaces.active.image.filepath for w in wm.windows for a in w.screen.areas
+                 if a.type == 'IMAGE_EDITOR' and a.spaces.active.image is not None]
+        report["diagrams"][target].update(windows_after_full_size=len(wm.windows), full_size_images=shown)
+
+    steps = [open_level] + ([click_raylab_tab] if first else []) + [to_top, look]
+    return steps + ([show_full_size, full_size_shown] if target == TARGETS[-1] else [])
+
+
+STEPS = [step for i, target in enumerate(TARGETS) for step in steps_for(target, i == 0)]
+
+
+def watchdog():
+    report["error"] = f"the session made no progress for {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
+    finish()
+
+
+try:
+    raylab.register()
+    bpy.app.timers.register(step_timer(STEPS, finish, report, interval=0.5), first_interval=2.0)
+    watch_progress(lambda: (len(STEPS), looks[0]), WATCHDOG_SECONDS, watchdog)
+except Exception:
+    report["error"] = traceback.format_exc()
+    finish()
