@@ -125,11 +125,29 @@ def steps_for(target, first):
             calls = max(1, (sidebar.height - needed * (side + 2 * diagrams.PREVIEW_PAD + 1)) // 80)
         state["tries"] += 1
         if state["tries"] > SCROLL_TRIES:
-            raise RuntimeError(f"{target}: the diagram never came into view")
+            gave_up(made)
+            raise RuntimeError(f"{target}: the diagram never came into view (the sidebar as last seen: "
+                               f"{os.path.join(OUT_DIR, f'gave_up_{key}.png')})")
         with region_context():
             for _ in range(calls):
                 bpy.ops.view2d.scroll_down()
         STEPS.insert(0, look)
+
+    def gave_up(made):
+        """The sidebar as it was last seen, and what the add-on computed, for the one who reads why."""
+        from matplotlib import image as mpimg
+        _, _, _, sidebar = view3d()
+        mpimg.imsave(os.path.join(OUT_DIR, f"gave_up_{key}.png"), sidebar_pixels())
+        with region_context():
+            computed = dict(column_width=diagrams.column_width(bpy.context), unit=diagrams.unit(bpy.context),
+                            tile_side=diagrams.tile_side(bpy.context))
+        report.setdefault("gave_up", {})[target] = dict(
+            computed, side=None if made is None else made[0], ui_scale=bpy.context.preferences.system.ui_scale,
+            pixel_size=bpy.context.preferences.system.pixel_size, view_ui_scale=bpy.context.preferences.view.ui_scale,
+            sidebar=dict(x=sidebar.x, y=sidebar.y, width=sidebar.width, height=sidebar.height))
+        if made is not None:
+            for k, tile in enumerate(diagrams.tiles(diagrams._pictures[path], made[0])):
+                mpimg.imsave(os.path.join(OUT_DIR, f"gave_up_{key}_tile{k}.png"), np.asarray(tile[::-1, :, :3]))
 
     def shoot(made, expected, found):
         from matplotlib import image as mpimg

@@ -88,15 +88,15 @@ def box_weights(size_in, size_out):
 
 
 def tiles(picture, side):
-    """The picture's square tiles, top first, each resampled to side x side: (side, side, 4) float32,
-    bottom row first. A picture is as many squares tall as it is wide; a leftover strip is dropped."""
+    """The picture's square tiles, top first, each resampled to side x side (smaller or larger, by area):
+    (side, side, 4) float32, bottom row first. A picture is as many squares tall as it is wide; a leftover strip is dropped."""
     height, width = picture.shape[:2]
     count = max(1, height // width)
     result = []
     for k in range(count):
         top = height - k * width  # rows count from the bottom
         square = picture[max(0, top - width):top].astype(np.float32) / 255.0
-        if side < width:
+        if side != width:
             rows, cols = box_weights(square.shape[0], side), box_weights(width, side)
             square = np.tensordot(np.tensordot(rows, square, axes=(1, 0)), cols, axes=(1, 1)).transpose(0, 2, 1)
         result.append(np.ascontiguousarray(square, dtype=np.float32))
@@ -115,7 +115,10 @@ def tile_icons(context, path):
         return None
     if isinstance(picture, str):
         return picture
-    side = min(tile_side(context), picture.shape[1])
+    # Always the square's own size, even above the picture's width (a wide sidebar, a large UI scale):
+    # Blender fills the square with the preview whatever its size, so a smaller tile would only be
+    # scaled again by Blender, blurred (Blender 5.x's sidebar at UI scale 2 is wider than the pictures).
+    side = tile_side(context)
     made = _tiles.get(path)
     if made is not None and made[0] == side:
         return made[1]
@@ -142,9 +145,12 @@ def draw(layout, context, path, caption):
     elif isinstance(icons, str):
         text_fit.label(column, context, f"This diagram did not load: {icons}", 'ERROR')
     else:
-        # The square's height is the column's width (plus one pixel against rounding), so Blender draws
-        # the tile across the whole column; the squares touch, the previews' padding between them.
-        scale = (column_width(context) + 1) / unit(context)
+        # The square's height is the column's width, so Blender draws the tile across the whole column;
+        # the squares touch, the previews' padding between them. Half a pixel more against rounding:
+        # the height is column_width whether Blender truncates it or rounds it. (A whole pixel more made
+        # Blender 4.x/5.x draw the preview in a square of height - padding, one pixel wider than the
+        # tile, so it rescaled it, blurred; 3.4 takes the smaller of the button's width and height.)
+        scale = (column_width(context) + 0.5) / unit(context)
         for icon in icons:
             column.template_icon(icon_value=icon, scale=scale)
     if caption:
