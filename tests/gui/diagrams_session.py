@@ -166,7 +166,8 @@ def steps_for(target, first):
             key=key, window_height=window.height,
             sidebar=dict(x=sidebar.x, y=sidebar.y, width=sidebar.width, height=sidebar.height),
             tiles=[dict(row=r, col=c, difference=d) for d, r, c in found], tile_count=len(expected), side=made[0],
-            column_width=column_width, label_room=label_room, unit=unit,
+            column_width=column_width, label_room=label_room, unit=unit, blender_version=list(bpy.app.version),
+            padding=diagrams.preview_padding(bpy.context),
             ui_scale=bpy.context.preferences.system.ui_scale,
             tries=state["tries"], caption=caption,
             # The panel is drawn twice for the screenshot: its lines once each.

@@ -70,7 +70,8 @@ def test_the_squares_span_the_column_one_under_the_other(shots, target):
     entry = shots[target]
     image = sidebar(entry)
     side, scale = entry["side"], entry["ui_scale"]
-    assert side == entry["column_width"] - 2 * PREVIEW_PAD
+    padding = entry.get("padding", 2 * PREVIEW_PAD)  # both sides together, as measured per version
+    assert side == entry["column_width"] - padding
     first = entry["tiles"][0]
     row = image[first["row"] + side // 2]
     panel = row[first["col"] - 1]  # the panel's background beside the picture
@@ -78,20 +79,25 @@ def test_the_squares_span_the_column_one_under_the_other(shots, target):
     right = run_length(row[first["col"] + side:], panel)
     # Only the panel's own padding and the preview's beside the picture, as much on each side: no band.
     assert abs(left - right) <= 1, (left, right)
-    assert left <= int(8 * scale) + PREVIEW_PAD + 1, (left, right)
+    assert left <= int(8 * scale) + (padding + 1) // 2 + 1, (left, right)
     if entry["tile_count"] > 1 and scale < 1.5:
         assert len(entry["tiles"]) >= 2  # the gaps between squares were seen
     for above, below in zip(entry["tiles"], entry["tiles"][1:]):
         assert below["col"] == above["col"]
-        assert 0 <= below["row"] - (above["row"] + side) <= 2 * PREVIEW_PAD + 1
+        assert 0 <= below["row"] - (above["row"] + side) <= padding + 1
 
 
 @pytest.mark.parametrize("target", [t for t in TARGETS if "@" not in t])
 def test_at_the_default_sidebar_width_a_square_is_as_wide_as_the_diagrams_are_drawn_for(shots, target):
     entry = shots[target]
     scale = entry["ui_scale"]
-    assert 200 <= entry["sidebar"]["width"] / scale <= 240  # Blender's default sidebar
-    assert abs(entry["side"] / scale - panel_figure.PANEL_TILE_PX) <= 2
+    # Blender's default sidebar: 229 px on 3.4, 291-292 px (280 units) on 4.3 and 5.2 (text_fit).
+    low, high = (200, 240) if entry.get("blender_version", [3])[0] < 4 else (260, 300)
+    assert low <= entry["sidebar"]["width"] / scale <= high
+    if entry.get("blender_version", [3])[0] < 4:
+        assert abs(entry["side"] / scale - panel_figure.PANEL_TILE_PX) <= 2
+    else:  # 4.x/5.x's wider default sidebar shows the squares larger than drawn for: texts only larger
+        assert entry["side"] / scale >= panel_figure.PANEL_TILE_PX - 2
 
 
 @pytest.mark.parametrize("target", TARGETS)

@@ -42,9 +42,20 @@ def column_width(context):
     return panels - 2 * int(8.0 * context.preferences.system.ui_scale)
 
 
+def preview_padding(context):
+    """The pixels Blender leaves, both sides together, between a preview and its square's edges.
+    3.4: 2 * PREVIEW_PAD (column 175 -> preview 167, 351 -> 343). 4.3 and 5.2 draw it otherwise;
+    measured on the sidebar's screenshots (tests/gui): at system.ui_scale 1.0417 (view scale 1) 7 px
+    (5.2: column 238 -> 231, 4.3: 237 -> 230), at 2.0833 (view scale 2) 13 px (5.2: 476 -> 463, 4.3:
+    474 -> 461). int(6 * ui_scale + 1) gives both; a tile of that side is drawn pixel for pixel there."""
+    if bpy.app.version < (4, 0, 0):
+        return 2 * PREVIEW_PAD
+    return int(6.0 * context.preferences.system.ui_scale + 1.0)
+
+
 def tile_side(context):
     """The side of the square Blender draws a tile in: the column's width less the preview's padding."""
-    return max(16, column_width(context) - 2 * PREVIEW_PAD)
+    return max(16, column_width(context) - preview_padding(context))
 
 
 def _tag_redraw():
