@@ -374,3 +374,102 @@ def test_race_animation_tasks_tick_with_a_wave_then_rebuild():
     assert tick(scene) == [True] * 5
     scene.frame_set(scene.frame_current + 5)
     assert not structure_cache.structure_for(obj, scene.raylab).structure.refitted
+
+
+def shown_bvh_boxes(scene):
+    """The boxes BVH 1's overlay draws for the level mesh with the scene's leaf size, depth range and
+    Leaves only: (lo, hi) rows, sorted, rounded (the same box built twice is the same row)."""
+    obj = levels.level_mesh_object(scene)
+    mesh = obj.data
+    vertices = np.empty(3 * len(mesh.vertices), np.float32)
+    mesh.vertices.foreach_get("co", vertices)
+    mesh.calc_loop_triangles()
+    triangles = np.empty(3 * len(mesh.loop_triangles), np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    settings = scene.raylab
+    boxes = raylab.build(vertices.reshape(-1, 3), triangles.reshape(-1, 3).astype(np.uint32), structure="bvh",
+                         leaf_size=settings.leaf_size).boxes()
+    keep = (boxes["depth"] >= settings.depth_min) & (boxes["depth"] <= settings.depth_max)
+    if settings.leaves_only:
+        keep &= boxes["leaf"]
+    rows = np.round(np.concatenate([boxes["lo"][keep], boxes["hi"][keep]], axis=1), 5)
+    return rows[np.lexsort(rows.T[::-1])], boxes
+
+
+def test_bvh_1_leaf_size_task_ticks_once_the_leaves_it_changes_are_shown():
+    scene = levels.open_level(bpy.context, "bvh_1")
+    scene.raylab.spin = False
+    assert tick(scene) == [True, False, False, False]
+    scene.raylab.depth_max = 3
+    assert tick(scene) == [True, True, False, False]
+    top_at_8, _ = shown_bvh_boxes(scene)
+    # Leaf size 1 with depths 0 to 3 shown: the same boxes, nothing to see, so the task waits.
+    scene.raylab.leaf_size = 1
+    top_at_1, tree = shown_bvh_boxes(scene)
+    assert np.array_equal(top_at_8, top_at_1)
+    assert tick(scene) == [True, True, False, False]
+    # The leaves, as the task says: one box per triangle, where leaf size 8 had a few thousand.
+    scene.raylab.leaves_only = True
+    scene.raylab.depth_max = 64
+    assert tick(scene) == [True, True, True, False]
+    leaves_at_1, tree = shown_bvh_boxes(scene)
+    assert len(leaves_at_1) == len(levels.level_mesh_object(scene).data.polygons)
+    # The condition's Depth to 10 already shows every leaf (8-wide or 4-wide nodes alike).
+    assert tree["depth"][tree["leaf"]].max() <= 10
+    scene.raylab.leaf_size = 8
+    leaves_at_8, _ = shown_bvh_boxes(scene)
+    assert len(leaves_at_8) < len(leaves_at_1) / 4
+
+
+def bvh_hardest_pixel(scene):
+    """The BVH's hardest pixel as the heat maps count it (tests/blender/test_heat_maps.py checks that the
+    record is this): every map pixel's camera ray traced through the API, the most triangle tests."""
+    from raylab.blender import heat_maps, properties, scene_export
+    exported = scene_export.export_scene(bpy.context.evaluated_depsgraph_get())
+    props = scene.raylab_render
+    model, _ = scene_export.build_scene(exported, structure="bvh", max_depth=properties.depth_setting(props),
+                                        leaf_size=props.leaf_size)
+    camera = heat_maps.heat_map_camera(exported.camera)
+    width, height = raylab.image_size(camera)
+    pixels = np.stack(np.meshgrid(np.arange(width), np.arange(height)), axis=-1).reshape(-1, 2) + 0.5
+    hits = model.intersect(*raylab.camera_rays(camera, pixels), per_ray=True)
+    return int(hits.per_ray[heat_maps.COUNTER].max())
+
+
+def test_where_work_goes_rod_task_ticks_once_the_rod_and_its_boxes_leave_the_goat():
+    """The rod task as its text tells it: 2 m along any axis, either way, makes the BVH's hardest pixel
+    cost what the goat alone costs; 1.5 m up, or straight behind the goat seen from the camera, does not
+    make it cheaper."""
+    from raylab.blender import heat_maps
+
+    def render():
+        assert bpy.ops.raylab.heat_maps(time_limit=0.0) == {'FINISHED'}
+        return scene[heat_maps.RECORD]["structures"]["bvh"]["hardest"]
+
+    scene = levels.open_level(bpy.context, "where_work_goes")
+    rod = scene.objects["Rod"]
+    start = rod.location.copy()
+    at_start = render()
+    assert timer_tick(scene) == [True, False, False] and bvh_hardest_pixel(scene) == at_start
+    octree = scene[heat_maps.RECORD]["structures"]["octree"]["probe_pixel"]
+    scene.raylab.probe_pixel_x, scene.raylab.probe_pixel_y = octree
+    assert tick(scene) == [True, True, False]
+    rod.location.z += 100.0  # out of the picture: the goat alone
+    goat_alone = bvh_hardest_pixel(scene)
+    assert goat_alone < at_start
+
+    # 1.5 m up the rod clears the goat in the picture, its boxes do not: no cheaper, no tick.
+    rod.location = start + Vector((0.0, 0.0, 1.5))
+    assert render() == at_start
+    assert timer_tick(scene) == [True, True, False]
+    away = (scene.camera.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized()
+    rod.location = start + away * 2.5  # hidden behind the goat: its outline's rays still pay
+    assert bvh_hardest_pixel(scene) == at_start
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            offset = Vector([2.0 * sign if i == axis else 0.0 for i in range(3)])
+            rod.location = start + offset
+            assert bvh_hardest_pixel(scene) == goat_alone, f"the rod moved by {tuple(offset)}"
+    # The last one, rendered: the task ticks.
+    assert render() == goat_alone
+    assert timer_tick(scene) == [True, True, True]

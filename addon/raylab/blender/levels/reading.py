@@ -257,6 +257,18 @@ def levels_root():
 
 
 _cache = {}  # folder -> (mtimes, Level or LevelError)
+_listings = {}  # root as asked (None: levels_root()) -> (levels, errors), as available_levels last read them
+_disk_busy = None  # see keep_off_the_disk
+
+
+def keep_off_the_disk(busy):
+    """While busy() is true, available_levels answers from what it read last instead of looking at the
+    files (None: always look). The add-on's panels call find_level in every draw, and every file-system
+    call lets go of Python's interpreter lock: while F12 runs, its job thread can then enter or leave the
+    render engine in the middle of a panel's draw, which leaves Blender refusing every operator (the F12
+    lock-up render_engine.py describes). The tasks register this for the render job's time."""
+    global _disk_busy
+    _disk_busy = busy
 
 
 def _mtimes(folder):
@@ -265,8 +277,12 @@ def _mtimes(folder):
 
 
 def available_levels(root=None):
-    """(levels sorted by order, errors): a broken level is reported, never fatal for the others."""
-    root = root or levels_root()
+    """(levels sorted by order, errors): a broken level is reported, never fatal for the others. A level
+    whose files changed is read again (see keep_off_the_disk for when it is not)."""
+    if _disk_busy is not None and root in _listings and _disk_busy():
+        levels, errors = _listings[root]
+        return list(levels), list(errors)
+    asked, root = root, root or levels_root()
     levels, errors = [], []
     for name in sorted(os.listdir(root)):
         folder = os.path.join(root, name)
@@ -280,7 +296,9 @@ def available_levels(root=None):
                 _cache[folder] = (stamp, error)
         item = _cache[folder][1]
         (errors if isinstance(item, LevelError) else levels).append(item)
-    return sorted(levels, key=lambda level: (level.order, level.id)), errors
+    levels.sort(key=lambda level: (level.order, level.id))
+    _listings[asked] = (levels, errors)
+    return list(levels), list(errors)
 
 
 def find_level(level_id, root=None):

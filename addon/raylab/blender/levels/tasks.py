@@ -10,7 +10,7 @@ from mathutils import Matrix, Vector
 
 from .. import draw
 from ..structure_cache import may_deform
-from .reading import LevelError, find_level
+from .reading import LevelError, find_level, keep_off_the_disk
 from .state import STATE_KEY, keep_stamps, level_mesh_object, state
 
 CHECK_INTERVAL = 0.5     # seconds between timer checks (renders and comparisons fire no depsgraph update)
@@ -160,12 +160,19 @@ def _check_timer():
     return CHECK_INTERVAL
 
 
+def _rendering():
+    return bpy.app.is_job_running('RENDER')
+
+
 def register():
     bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph_update)
     bpy.app.timers.register(_check_timer, first_interval=CHECK_INTERVAL, persistent=True)
+    # The panels' draws read the levels: while F12 runs they must not let go of the interpreter lock.
+    keep_off_the_disk(_rendering)
 
 
 def unregister():
+    keep_off_the_disk(None)
     if bpy.app.timers.is_registered(_check_timer):
         bpy.app.timers.unregister(_check_timer)
     if _on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
