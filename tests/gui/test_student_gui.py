@@ -1,0 +1,98 @@
+"""A student's second afternoon, in a real Blender window under Xvfb: a scripted student does every task
+of every level as its text says, in every way the text allows, and the add-on's own handlers and timer
+tick them. tests/gui/student_session.py does it, in one Blender session; this reads what the Tasks panel
+showed after each step.
+"""
+import os
+
+import pytest
+
+from gui_util import OUT, ROOT, Region, changed, load_rgb, read_report, run_gui_blender, start_blend
+
+SCRIPT = os.path.join(ROOT, "tests", "gui", "student_session.py")
+LEVELS_DIR = os.path.join(ROOT, "levels")
+LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
+# The rod task says "2 m or more along any axis, either way".
+ROD_WAYS = ("rod up", "rod down", "rod right", "rod left", "rod away", "rod toward")
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    for name in ("student_session.json", "student_bvh_1_leaves_8.png", "student_bvh_1_leaves_1.png"):
+        if os.path.exists(os.path.join(OUT, name)):
+            os.remove(os.path.join(OUT, name))
+    blend = start_blend(tmp_path_factory.mktemp("student"))
+    process = run_gui_blender(SCRIPT, [OUT], blend, extra=["--enable-event-simulate"])
+    report = read_report(os.path.join(OUT, "student_session.json"), process)
+    return report["runs"]
+
+
+def runs_of(runs, level_id):
+    found = [run for run in runs if run["level"] == level_id]
+    assert found, f"the student never opened {level_id}"
+    return found
+
+
+@pytest.mark.parametrize("level_id", LEVEL_IDS)
+def test_every_task_ticks_in_order_when_the_student_does_it(runs, level_id):
+    """After each step the Tasks panel shows the tasks done so far ticked, and no other: a task ticks when
+    its text is done, not before, and only after the ones above it."""
+    for run in runs_of(runs, level_id):
+        where = f"{level_id} ({run['way']})"
+        assert "error" not in run, f"{where}: {run['error']}"
+        assert run["steps"], where
+        count = len(run["tasks"])
+        for step in run["steps"]:
+            expected = [True] * step["expect"] + [False] * (count - step["expect"])
+            assert step["ticks"] == expected, f"{where}, after {step['did']!r}: {step}"
+    assert any(all(run["steps"][-1]["ticks"]) for run in runs_of(runs, level_id)), \
+        f"{level_id}: no run ticked every task"
+
+
+def test_the_rod_task_ticks_along_every_axis_either_way(runs):
+    """Where does the work go: 2 m along any axis, either way, makes the BVH's hardest pixel cheaper, and
+    the task ticks."""
+    rod_runs = {run["way"]: run for run in runs_of(runs, "where_work_goes")}
+    assert set(ROD_WAYS) <= set(rod_runs)
+    for way in ROD_WAYS:
+        steps = rod_runs[way]["steps"]
+        start, moved = steps[0]["bvh_hardest"], steps[-1]["bvh_hardest"]
+        assert moved < start and all(steps[-1]["ticks"]), f"{way}: {steps}"
+    # Moved clear in any direction, the hardest pixel costs the same: the goat's own.
+    assert len({rod_runs[way]["steps"][-1]["bvh_hardest"] for way in ROD_WAYS}) == 1
+
+
+def test_the_probe_pixel_task_puts_the_probe_on_the_octree_s_hardest_pixel(runs):
+    for run in runs_of(runs, "where_work_goes"):
+        step = run["steps"][1]
+        assert step["triangles_tested"] == step["octree_hardest"], run["way"]
+
+
+def test_bvh_1_s_leaf_size_task_changes_the_boxes_drawn(runs):
+    """With the leaves shown, Leaf size 1 visibly changes the viewport (the task's point)."""
+    (run,) = runs_of(runs, "bvh_1")
+    before, after = (Region(run["shots"][name]["region"], run["shots"][name]["window_height"]).crop(
+        load_rgb(os.path.join(OUT, name))) for name in ("student_bvh_1_leaves_8.png", "student_bvh_1_leaves_1.png"))
+    # The region's top strip holds the header and the corner text, the right its sidebar: the boxes are
+    # drawn in the middle.
+    middle = (slice(60, before.shape[0] - 20), slice(0, int(before.shape[1] * 0.7)))
+    assert changed(before[middle], after[middle], threshold=0.1).mean() > 0.02
+
+
+def test_the_race_s_animation_tasks_refit_then_rebuild_while_playing(runs):
+    (run,) = runs_of(runs, "race")
+    refit, rebuild = run["steps"][-2], run["steps"][-1]
+    assert refit["frames"] >= 3 and rebuild["frames"] >= 3
+    assert refit["refits"] > 0  # the BVH refitted as the wave played
+    assert rebuild["builds"] > 0 and rebuild["refits"] == 0  # and built anew each frame on Rebuild
+
+
+
+def test_what_the_tasks_ask_the_student_to_read_is_there(runs):
+    """AABB 2 asks to read Rays ignored after F12; Octree 2 how many triangles the ray on the bunny
+    tested: a few of the bunny's, not all."""
+    (goat,) = [run for run in runs_of(runs, "aabb_2") if run["way"] == "goat"]
+    assert goat["steps"][-1]["rays_ignored"] > 0
+    (octree_2,) = runs_of(runs, "octree_2")
+    hit = octree_2["steps"][-1]
+    assert hit["status"] == "hit_object" and 0 < hit["triangles_tested"] < hit["triangle_total"] / 10
