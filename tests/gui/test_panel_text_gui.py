@@ -18,7 +18,12 @@ SCRIPT = os.path.join(ROOT, "tests", "gui", "panel_text_session.py")
 DEFAULT_SIDEBAR = (200, 320)  # the default sidebar: 229 px on Blender 3.4, 291 on 4.3 and 5.2 (UI scale 1)
 
 
-@pytest.fixture(scope="module", params=["1600x900", "1280x720"])
+# 1280x720 changes the panels' height, not the sidebar's width: it runs on the host, the Debian roots (4.3,
+# 5.2) measure at 1600x900, within .ci/run's time.
+SCREENS = ["1600x900"] + ([] if os.environ.get("RAYLAB_IN_ROOT") else ["1280x720"])
+
+
+@pytest.fixture(scope="module", params=SCREENS)
 def measured(request, tmp_path_factory):
     out = os.path.join(OUT, f"panel_text_{request.param}")
     os.makedirs(out, exist_ok=True)
