@@ -7,19 +7,19 @@ The measurements are the ones tools/panel_figure.py wrote into each PNG as it dr
 sizes and boxes as matplotlib drew them), so they belong to the very picture that ships.
 """
 import json
+import pathlib
 import sys
 
 import pytest
 from PIL import Image
 
-from conftest import ADDON
-
-ROOT = ADDON.parent
+# The checkout's levels and tools (the add-on package may be a copy elsewhere: ./raylab test --sanitize).
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 from raylab.blender import levels  # noqa: E402
 from tools import panel_figure  # noqa: E402
 
-DIAGRAMS = sorted({block[1] for level in levels.available_levels()[0] for block in level.blocks
+DIAGRAMS = sorted({block[1] for level in levels.available_levels(str(ROOT / "levels"))[0] for block in level.blocks
                    if block[0] == "image"})
 SHRINK = panel_figure.PANEL_TILE_PX / panel_figure.TILE_PX  # drawn pixels to panel pixels
 
