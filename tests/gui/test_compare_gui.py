@@ -80,7 +80,8 @@ def test_every_text_of_the_table_is_drawn_whole_at_the_default_sidebar_width(ses
     and value is drawn on one line within the width it gets (never elided); brute force's estimates carry
     the mark the footnote explains, and the notes say why."""
     table = session["table"]
-    assert 200 <= table["sidebar_width"] <= 260 and table["columns"] == 2, table["sidebar_width"]
+    # The default sidebar: 229 px on Blender 3.4, 291 on 4.3 and 5.2 (text_fit's widths).
+    assert 200 <= table["sidebar_width"] <= 320 and table["columns"] == 2, (table["sidebar_width"], table["columns"])
     cells, drawn = drawn_whole(table)
     assert cells["Render"]["none"].startswith("~") and not cells["Render"]["bvh"].startswith("~")
     assert cells["Render"]["none"].endswith((" s", " min", " h")), cells["Render"]["none"]

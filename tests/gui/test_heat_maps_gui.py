@@ -104,7 +104,9 @@ def test_each_map_shows_its_structure_s_work(shots):
     octree = crops["octree"].mean(axis=-1)
     assert (octree < 0.15).mean() > 0.5
     assert (octree > 0.4).sum() > 20
-    assert not np.allclose(crops["octree"], crops["none"], atol=0.1)
+    # The maps' rectangles round to the window's pixels: two crops may differ by a pixel's width.
+    h, w = (min(a, b) for a, b in zip(crops["octree"].shape[:2], crops["none"].shape[:2]))
+    assert not np.allclose(crops["octree"][:h, :w], crops["none"][:h, :w], atol=0.1)
 
 
 
