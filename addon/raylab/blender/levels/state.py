@@ -11,9 +11,9 @@ OWNER_KEY = "raylab_level_owner"  # on every ID a level made: the level's token
 MESH_OBJECT_NAME = "Level mesh"
 
 
-def _scene_names():
+def _scenes():
     import bpy  # this module loads without Blender too (the level format's checks)
-    return bpy.data.scenes.keys()
+    return bpy.data.scenes
 
 
 def stored_state(scene):
@@ -25,7 +25,7 @@ def is_copy(scene):
     """True for a scene that carries a level's state copied from the level's scene (still there)."""
     st = stored_state(scene)
     owner = st.get("scene") if st is not None else None
-    return owner is not None and owner != scene.name and owner in _scene_names()
+    return owner is not None and owner != scene.name and owner in _scenes()  # a lookup by name, no list of names built
 
 
 def state(scene):
