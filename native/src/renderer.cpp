@@ -357,6 +357,21 @@ void RenderSettings::validate() const {
   require(std::isfinite(fixed_epsilon) && fixed_epsilon >= 0.0f, "fixed_epsilon must be finite and >= 0");
   require(threads >= 0, "threads must be >= 0");
   require(tile_size >= 1 && tile_size <= 4096, "tile_size must be 1 to 4096");
+  require(memory_budget > 0, "memory_budget must be positive");
+}
+
+size_t render_buffer_bytes(int width, int height) {
+  constexpr size_t per_pixel = 4 * sizeof(float) + sizeof(int32_t) + sizeof(float) + sizeof(TraversalStats);
+  return size_t(width) * size_t(height) * per_pixel;
+}
+
+void require_render_memory(int width, int height, const RenderSettings& settings, size_t caller_bytes_per_pixel) {
+  const size_t needed = render_buffer_bytes(width, height) + size_t(width) * size_t(height) * caller_bytes_per_pixel;
+  require(needed <= settings.memory_budget,
+          "width x height " + std::to_string(width) + " x " + std::to_string(height) + " at super_sampling " +
+              std::to_string(settings.super_sampling) + " (whose samples take no memory) needs about " +
+              std::to_string(needed) + " bytes, over the render's memory_budget of " +
+              std::to_string(settings.memory_budget) + " bytes: lower the resolution or raise memory_budget");
 }
 
 void Material::validate() const {
@@ -430,8 +445,9 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
   }
   const Tracer tracer(scene, std::move(instances), std::move(placed_lights), settings);
 
-  RenderResult result;
   const int w = camera.width(), h = camera.height();
+  require_render_memory(w, h, settings);
+  RenderResult result;
   result.width = w;
   result.height = h;
   result.image.assign(size_t(w) * h * 4, 0.0f);
@@ -444,23 +460,25 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
   const int tiles = tiles_x * tiles_y;
   RenderProgress local_progress;
   RenderProgress& prog = progress ? *progress : local_progress;
-  prog.tiles_done.store(0);
-  prog.tiles_total.store(uint32_t(tiles));
+  prog.pixels_done.store(0);
+  prog.pixels_total.store(uint64_t(w) * h);
   std::atomic<bool> skipped{false};
   tbb::enumerable_thread_specific<RenderStats> per_thread;
   const int ss = settings.super_sampling;
   const bool centre_is_sample = ss % 2 == 1;
 
   const auto render_tile = [&](int tile) {
-    if (prog.cancel_requested.load(std::memory_order_relaxed)) {
-      skipped.store(true);
-      return;
-    }
     RenderStats& stats = per_thread.local();
     const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
     const int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
+        // Read before every pixel (a relaxed load costs nothing next to a pixel's rays), so that a
+        // cancel stops a tile half-way; the pixels left keep their initial values.
+        if (prog.cancel_requested.load(std::memory_order_relaxed)) {
+          skipped.store(true, std::memory_order_relaxed);
+          return;
+        }
         const size_t pixel = size_t(y) * w + x;
         PixelRandom random(pixel);
         glm::vec3 sum(0.0f);
@@ -497,8 +515,8 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
         out[1] = color.y;
         out[2] = color.z;
         out[3] = 1.0f;
+        prog.pixels_done.fetch_add(1, std::memory_order_relaxed);
       }
-    prog.tiles_done.fetch_add(1);
   };
   const auto run = [&] {
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& range) {
