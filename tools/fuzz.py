@@ -12,7 +12,10 @@ the hit), and checks the contract (README, "Exactness and its limits"): with the
 octree and bvh return brute force's closest hit and any-hit answer; with either test no hit has a t
 outside (tmin, tmax] or a non-finite t. Mutated OBJ files must load as a valid
 mesh or raise ValueError/OSError. Odd threads= values give one thread's answers or a ValueError naming
-threads. A crash ends the process, which is a failure too. Every finding is
+threads. Renders of every structure are cancelled at random moments (a progress callback that returns
+True after a random number of calls, or an event another thread sets): each must return, say cancelled
+exactly when some pixel is left unrendered (zero alpha), count the primary rays of the rendered pixels
+alone, and hold finite pixels. A crash ends the process, which is a failure too. Every finding is
 printed with the seed and round that reproduce it, and the rounds' counts go to out/fuzz/summary.json.
 """
 import argparse
@@ -21,6 +24,7 @@ import math
 import os
 import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -297,6 +301,73 @@ OBJ_TOKENS = ["nan", "inf", "-inf", "1e39", "-1e39", "1e-46", "a", "1,5", "", "0
               "//", "/", "-1", "0", "99999999999999999999", "-99", "3.4e38", "1e308", "\t", "#", "\\", "vn", "o x"]
 
 
+# --- cancelled renders ---------------------------------------------------------------------------------
+
+def look_from(eye, target):
+    """Camera-to-world matrix of a camera at `eye` looking at `target` (down its local -Z)."""
+    back = unit(eye - target)
+    up = np.array([0.0, 0.0, 1.0]) if abs(back[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    right = unit(np.cross(up, back))
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
+    return m
+
+
+def cancel_round(rng, round_, findings, counts):
+    structure = str(rng.choice(raylab.STRUCTURES))
+    vertices, triangles = shipped(rng)
+    vertices = np.asarray(vertices, np.float32)
+    lo, hi = vertices.min(axis=0).astype(np.float64), vertices.max(axis=0).astype(np.float64)
+    centre, size = (lo + hi) / 2, max(float(np.linalg.norm(hi - lo)), 1e-3)
+    try:
+        scene = raylab.Scene(structure=structure)
+        scene.add_instance(scene.add_mesh(vertices, triangles), np.eye(4), material=0)
+        scene.commit()
+    except (ValueError, raylab.BuildError):
+        counts["refused_builds"] += 1
+        return
+    eye = centre + unit(rng.normal(size=3)) * size * rng.uniform(1.0, 3.0)
+    width, height = (int(x) for x in rng.integers(8, 160, size=2))
+    camera = dict(type=str(rng.choice(["PERSP", "ORTHO"])), matrix_world=look_from(eye, centre), ortho_scale=size,
+                  resolution_x=width, resolution_y=height, clip_start=1e-3 * size, clip_end=10.0 * size)
+    lights = [dict(type=str(rng.choice(["POINT", "SUN", "SPOT", "AREA"])), energy=100.0 * size * size,
+                   matrix_world=look_from(eye, centre), size=0.3 * size)]
+    materials = [dict(reflectivity=float(rng.uniform(0, 1)), transmission=float(rng.uniform(0, 1)))]
+    ss = int(rng.integers(1, 5))
+    settings = dict(super_sampling=ss, tile_size=int(rng.choice([1, 7, 32, 4096])), max_depth=int(rng.integers(0, 5)),
+                    threads=int(rng.integers(0, 3)))
+    stop = threading.Event()
+    if rng.random() < 0.5:
+        calls, after = [0], int(rng.integers(0, 4))  # the first call comes before any pixel
+
+        def progress(fraction):
+            calls[0] += 1
+            return calls[0] > after
+    else:
+        threading.Timer(float(rng.uniform(0.0, 0.3)), stop.set).start()
+
+        def progress(fraction):
+            return stop.is_set()
+    try:
+        result = raylab.render(scene, camera, lights, materials, settings, progress=progress)
+    except Exception as error:  # noqa: BLE001 - whatever it is, a cancel must not cause it
+        findings.add(round_, f"a cancelled {structure} render raised {type(error).__name__}: {error}")
+        return
+    finally:
+        stop.set()
+    counts["renders"] += 1
+    counts["cancelled_renders"] += bool(result.cancelled)
+    alpha = result.image[..., 3]
+    rendered = int((alpha == 1.0).sum())
+    what = f"{structure} {width}x{height} ss {ss} {settings}"
+    if result.cancelled != bool((alpha == 0.0).any()) or rendered + int((alpha == 0.0).sum()) != alpha.size:
+        findings.add(round_, f"cancelled={result.cancelled} with {rendered} of {alpha.size} pixels rendered: {what}")
+    if result.stats["rays_primary"] != ss * ss * rendered:
+        findings.add(round_, f"{result.stats['rays_primary']} primary rays for {rendered} pixels at ss {ss}: {what}")
+    if not np.isfinite(result.image).all():
+        findings.add(round_, f"a cancelled render has non-finite pixels: {what}")
+
+
 def mutate(text, rng):
     lines = text.split("\n")
     for _ in range(int(rng.integers(1, 4))):
@@ -351,7 +422,8 @@ def main():
     seed = args.seed if args.seed is not None else int.from_bytes(os.urandom(4), "little")
     print(f"fuzz: seed {seed}, {args.seconds:.0f} s", flush=True)
     findings = Findings(seed)
-    counts = dict(rounds=0, builds=0, refused_builds=0, rays=0, obj_files=0, obj_refused=0)
+    counts = dict(rounds=0, builds=0, refused_builds=0, rays=0, obj_files=0, obj_refused=0, renders=0,
+                  cancelled_renders=0)
     started = time.monotonic()
     with tempfile.TemporaryDirectory() as folder, np.errstate(all="ignore"):
         round_ = 0
@@ -359,6 +431,7 @@ def main():
             rng = np.random.default_rng([seed, round_])  # each round reproducible on its own
             trace_round(rng, round_, findings, counts)
             threads_round(rng, round_, findings, counts)
+            cancel_round(rng, round_, findings, counts)
             for _ in range(20):
                 obj_round(rng, round_, findings, counts, folder)
             round_ += 1
@@ -368,7 +441,8 @@ def main():
     with open(os.path.join(args.out, "summary.json"), "w") as file:
         json.dump(summary, file, indent=2)
     print(f"fuzz: {counts['rounds']} rounds, {counts['builds']:,} builds ({counts['refused_builds']} refused), "
-          f"{counts['rays']:,} rays, {counts['obj_files']:,} mutated OBJ files ({counts['obj_refused']:,} refused): "
+          f"{counts['rays']:,} rays, {counts['obj_files']:,} mutated OBJ files ({counts['obj_refused']:,} refused), "
+          f"{counts['renders']} renders cancelled at random ({counts['cancelled_renders']} before the end): "
           f"{len(findings.items)} findings")
     sys.exit(1 if findings.items else 0)
 

@@ -373,7 +373,8 @@ def image_size(camera):
 def write_image(path, image):
     """Writes an (H, W, 4) or (H, W, 3) linear image, row 0 the top row: .png 8-bit with the sRGB curve,
     .exr float. Through OpenImageIO (the _raylab_images module of a build made by ./raylab setup); in
-    the Blender extension, which leaves OpenImageIO out, through Blender's own image writer."""
+    the Blender extension, which leaves OpenImageIO out, through Blender's own image writer. An image
+    with a NaN or infinite channel is refused (ValueError: how many pixels, where the first is)."""
     try:
         from . import _raylab_images
     except ImportError:

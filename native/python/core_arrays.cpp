@@ -158,17 +158,7 @@ BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth
   s.max_depth = max_depth_parameter(max_depth);
   s.leaf_size = int32_parameter(leaf_size, "leaf_size");
   s.triangle_test = triangle_test_from_name(str_parameter(triangle_test_name, "triangle_test", tests.c_str()));
-  if (!memory_budget.is_none()) {
-    if (!py::isinstance<py::int_>(memory_budget) || py::isinstance<py::bool_>(memory_budget))
-      throw std::invalid_argument("memory_budget must be a whole number of bytes or None, got " +
-                                  describe(memory_budget));
-    const py::int_ budget = py::reinterpret_borrow<py::int_>(memory_budget);
-    if (budget < py::int_(1))
-      throw std::invalid_argument("memory_budget must be positive, got " + describe(budget));
-    // Anything beyond size_t is no limit at all.
-    s.memory_budget = budget > py::int_(std::numeric_limits<size_t>::max()) ? std::numeric_limits<size_t>::max()
-                                                                            : budget.cast<size_t>();
-  }
+  if (!memory_budget.is_none()) s.memory_budget = memory_budget_parameter(memory_budget, "memory_budget", true);
   s.validate();
   return s;
 }

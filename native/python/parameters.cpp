@@ -103,6 +103,16 @@ double number_parameter(py::handle value, const std::string& name) {
   return x;
 }
 
+size_t memory_budget_parameter(py::handle value, const std::string& name, bool or_none) {
+  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value))
+    throw std::invalid_argument(name + " must be a whole number of bytes" + (or_none ? " or None" : "") + ", got " +
+                                describe(value));
+  const py::int_ budget = py::reinterpret_borrow<py::int_>(value);
+  if (budget < py::int_(1)) throw std::invalid_argument(name + " must be positive, got " + describe(budget));
+  return budget > py::int_(std::numeric_limits<size_t>::max()) ? std::numeric_limits<size_t>::max()
+                                                               : budget.cast<size_t>();
+}
+
 bool bool_parameter(py::handle value, const std::string& name) {
   PyObject* p = value.ptr();
   if (p == Py_True) return true;

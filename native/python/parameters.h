@@ -30,6 +30,9 @@ uint32_t id_parameter(py::handle value, size_t count, const char* what);
 int threads_parameter(py::handle value);
 // A real number (int, float or numpy scalar; not bool); NaN and infinities pass through.
 double number_parameter(py::handle value, const std::string& name);
+// A positive whole number of bytes (a structure's or a render's memory budget); anything beyond
+// size_t is no limit at all. `or_none`: the message says None is accepted too (the caller's default).
+size_t memory_budget_parameter(py::handle value, const std::string& name, bool or_none = false);
 // True or False (numpy.bool_ and the integers 0 and 1 as well).
 bool bool_parameter(py::handle value, const std::string& name);
 // A str; `accepted` says which ones, for the message ("none, aabb, octree or bvh").

@@ -54,6 +54,10 @@ class Fields {
     if (!v) return fallback;
     return int32_parameter(v, name(key));
   }
+  size_t bytes(const char* key, size_t fallback) {
+    const py::object v = take(key);
+    return v ? memory_budget_parameter(v, name(key)) : fallback;
+  }
   bool boolean(const char* key, bool fallback) {
     const py::object v = take(key);
     if (!v) return fallback;
@@ -234,6 +238,7 @@ RenderSettings settings_from_dict(py::handle object) {
   s.threads = f.integer("threads", s.threads);
   s.tile_size = f.integer("tile_size", s.tile_size);
   s.cost_rays = f.row("cost_rays", kCostRays, kCostRays[0]).value;
+  s.memory_budget = f.bytes("memory_budget", s.memory_budget);
   f.finish();
   try {
     s.validate();
@@ -305,6 +310,17 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   const std::vector<Light> lights = lights_from_list(light_list);
   const std::vector<Material> materials = materials_from_list(material_list);
   const RenderSettings settings = settings_from_dict(settings_dict);
+  {
+    // Checked here, before anything is allocated: the result's numpy copies (image, instance,
+    // distance) and its cost arrays (one float per counter, made when read) live beside its buffers.
+    constexpr size_t copies = 4 * sizeof(float) + sizeof(int32_t) + sizeof(float) + std::size(kCounters) * sizeof(float);
+    const Camera view(camera);
+    try {
+      require_render_memory(view.width(), view.height(), settings, copies);
+    } catch (const std::invalid_argument& e) {
+      value_error(std::string("settings: ") + e.what());
+    }
+  }
   const bool reports = !progress.is_none();
   if (reports && !PyCallable_Check(progress.ptr())) throw py::type_error("progress must be callable or None");
 
@@ -432,7 +448,8 @@ void bind_render(py::module_& m) {
         "Renders a committed raylab.Scene; progress(fraction) is called several times a second and "
         "cancels the render by returning True. settings (all optional): super_sampling (1-4), max_depth, "
         "shadows, background, ambient, robust_offset, fixed_epsilon, shadow_terminator, threads, tile_size, "
-        "cost_rays (one of COST_RAYS: which of a pixel's rays its result.cost counts).");
+        "cost_rays (one of COST_RAYS: which of a pixel's rays its result.cost counts), memory_budget (bytes "
+        "the render's buffers and the result's arrays may take; resolutions beyond it are refused).");
 }
 
 }  // namespace raylab::python

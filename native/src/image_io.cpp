@@ -25,6 +25,17 @@ void write_image(const std::string& path, std::span<const float> rgba, int width
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   if (ext != ".png" && ext != ".exr") fail("the extension must be .png or .exr");
+  // A NaN or an infinity is no colour: PNG would write it as black or white and EXR keep it, and the
+  // picture would look fine or broken with no word of why.
+  size_t bad = 0, first = 0;
+  for (size_t p = 0; p < size_t(width) * size_t(height); ++p)
+    if (!std::all_of(&rgba[4 * p], &rgba[4 * p] + 4, [](float c) { return std::isfinite(c); }) && bad++ == 0) first = p;
+  if (bad > 0)
+    throw std::invalid_argument("cannot write image '" + path + "': " + std::to_string(bad) + " of its " +
+                                std::to_string(size_t(width) * size_t(height)) +
+                                " pixels are not finite (NaN or infinite), the first at row " +
+                                std::to_string(first / size_t(width)) + ", column " +
+                                std::to_string(first % size_t(width)) + " (row 0 the top row)");
 
   auto out = OIIO::ImageOutput::create(path);
   if (!out) fail(OIIO::geterror());

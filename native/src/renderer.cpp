@@ -12,12 +12,20 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
 namespace raylab {
 
 namespace {
+
+// A limit as the messages print it: 1e+20, 1000.
+std::string number(float x) {
+  std::ostringstream out;
+  out << x;
+  return out.str();
+}
 
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
@@ -29,6 +37,14 @@ bool finite(const glm::mat4& m) {
 
 void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument(what);
+}
+
+// Radiance and irradiance are kept within +-kRadianceLimit wherever they could grow without bound (a
+// light nearer than floats resolve, the sum over lights): with the accepted material ranges every
+// product below stays finite, so no inf, and no NaN from inf * 0 or inf - inf, reaches a pixel.
+glm::vec3 bounded(const glm::dvec3& x) {
+  const double limit = kRadianceLimit;
+  return glm::vec3(glm::clamp(x, glm::dvec3(-limit), glm::dvec3(limit)));
 }
 
 // splitmix64: a per-pixel stream, so that a pixel's samples do not depend on the thread or tile
@@ -198,7 +214,8 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
                                const glm::vec3& ng, bool past_face, const glm::vec3& v, RenderStats& stats,
                                PixelRandom& random, glm::vec3& specular) const {
   const Light& light = *pl.light;
-  const glm::vec3 radiant = light.color * light.energy;
+  // In double: colour times energy, over a squared distance of a denormal, stays finite there.
+  const glm::dvec3 radiant = glm::dvec3(light.color) * double(light.energy);
   const glm::vec3 origin = offset(shadow_p, ng);
   // Light behind the face reaches a smooth hit only through a shadow ray, which the face itself
   // stops where the shading normals lean past a flat surface: without one it stays out. (At the
@@ -211,12 +228,12 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
     const glm::vec3 l = -pl.axis;
     const float cos_n = light_cosine(n, ng, l, past_face);
     if (cos_n <= 0.0f) return glm::vec3(0.0f);
-    const glm::vec3 e = radiant * cos_n * visibility(origin, l, kInfinity, light.shadows, stats);
+    const glm::vec3 e = bounded(radiant * double(cos_n)) * visibility(origin, l, kInfinity, light.shadows, stats);
     return phong(m, diffuse, n, v, l, e, specular);
   }
   if (light.type == LightType::Area) {
     const int k = light.samples;
-    const glm::vec3 per_sample = radiant / (float(k * k) * kFourPi);
+    const glm::dvec3 per_sample = radiant / (double(k * k) * kFourPi);
     glm::vec3 sum(0.0f);
     for (int i = 0; i < k; ++i)
       for (int j = 0; j < k; ++j) {
@@ -225,12 +242,13 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
         const glm::vec3 q = glm::vec3(light.matrix_world * glm::vec4(sx, sy, 0.0f, 1.0f));
         const glm::vec3 to_light = q - p;
         const float r2 = glm::dot(to_light, to_light);
-        if (!(r2 > 0.0f)) continue;
+        if (!(r2 > 0.0f) || !std::isfinite(r2)) continue;  // on the light, or beyond float's range
         const float r = std::sqrt(r2);
         const glm::vec3 l = to_light / r;
         const float cos_n = light_cosine(n, ng, l, past_face), cos_light = glm::dot(pl.axis, -l);
         if (cos_n <= 0.0f || cos_light <= 0.0f) continue;
-        const glm::vec3 e = per_sample * (cos_n * cos_light / r2) * visibility_to(origin, q, light.shadows, stats);
+        const glm::vec3 e = bounded(per_sample * (double(cos_n) * cos_light / r2)) *
+                            visibility_to(origin, q, light.shadows, stats);
         sum += phong(m, diffuse, n, v, l, e, specular);
       }
     return sum;
@@ -238,16 +256,16 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
   // Point and spot.
   const glm::vec3 to_light = pl.position - p;
   const float r2 = glm::dot(to_light, to_light);
-  if (!(r2 > 0.0f)) return glm::vec3(0.0f);
+  if (!(r2 > 0.0f) || !std::isfinite(r2)) return glm::vec3(0.0f);  // on the light, or beyond float's range
   const float r = std::sqrt(r2);
   const glm::vec3 l = to_light / r;
   const float cos_n = light_cosine(n, ng, l, past_face);
   if (cos_n <= 0.0f) return glm::vec3(0.0f);
-  float factor = cos_n / (kFourPi * r2);
+  double factor = cos_n / (kFourPi * double(r2));
   if (light.type == LightType::Spot) factor *= spot_attenuation(glm::dot(pl.axis, -l), light.spot_size, light.spot_blend);
   if (factor <= 0.0f) return glm::vec3(0.0f);
   // The shadow ray runs from its own start (the offset, maybe lifted point) to the light itself.
-  const glm::vec3 e = radiant * factor * visibility_to(origin, pl.position, light.shadows, stats);
+  const glm::vec3 e = bounded(radiant * factor) * visibility_to(origin, pl.position, light.shadows, stats);
   return phong(m, diffuse, n, v, l, e, specular);
 }
 
@@ -288,12 +306,15 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   const glm::vec3 diffuse = m.diffuse * (1.0f - m.metallic);
 
   glm::vec3 specular(0.0f);
-  glm::vec3 local = m.ambient * settings_.ambient * diffuse;
-  for (const PlacedLight& pl : lights_) local += direct_light(pl, m, diffuse, p, shadow_p, ns, nf, terminator, v, stats, random, specular);
+  glm::vec3 local = bounded(double(m.ambient) * glm::dvec3(settings_.ambient) * glm::dvec3(diffuse));
+  for (const PlacedLight& pl : lights_) {
+    local = bounded(local + direct_light(pl, m, diffuse, p, shadow_p, ns, nf, terminator, v, stats, random, specular));
+    specular = bounded(specular);
+  }
 
   const float t = m.transmission;
   glm::vec3 color = specular + (1.0f - t) * (1.0f - kr) * local;
-  if (depth >= settings_.max_depth) return color;
+  if (depth >= settings_.max_depth) return bounded(color);
 
   // Fresnel splits the transmitted share into reflection and refraction; under total internal
   // reflection all of it reflects.
@@ -321,7 +342,7 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
     r.direction = refracted;
     color += t * (1.0f - fresnel) * trace(r, depth + 1, stats, random);
   }
-  return color;
+  return bounded(color);
 }
 
 }  // namespace
@@ -352,21 +373,38 @@ bool refract_direction(const glm::vec3& incident, const glm::vec3& n, float eta,
 void RenderSettings::validate() const {
   require(super_sampling >= 1 && super_sampling <= 4, "super_sampling must be 1 to 4, got " + std::to_string(super_sampling));
   require(max_depth >= 0 && max_depth <= 64, "max_depth must be 0 to 64, got " + std::to_string(max_depth));
-  require(finite(background), "background must be finite");
+  require(finite(background) && glm::all(glm::lessThanEqual(glm::abs(background), glm::vec3(kRadianceLimit))),
+          "background must be finite, each component within +-" + number(kRadianceLimit));
   require(finite(ambient), "ambient must be finite");
   require(std::isfinite(fixed_epsilon) && fixed_epsilon >= 0.0f, "fixed_epsilon must be finite and >= 0");
   require(threads >= 0, "threads must be >= 0 (0: all cores), got " + std::to_string(threads));
   require(tile_size >= 1 && tile_size <= 4096, "tile_size must be 1 to 4096");
+  require(memory_budget > 0, "memory_budget must be positive");
+}
+
+size_t render_buffer_bytes(int width, int height) {
+  constexpr size_t per_pixel = 4 * sizeof(float) + sizeof(int32_t) + sizeof(float) + sizeof(TraversalStats);
+  return size_t(width) * size_t(height) * per_pixel;
+}
+
+void require_render_memory(int width, int height, const RenderSettings& settings, size_t caller_bytes_per_pixel) {
+  const size_t needed = render_buffer_bytes(width, height) + size_t(width) * size_t(height) * caller_bytes_per_pixel;
+  require(needed <= settings.memory_budget,
+          "width x height " + std::to_string(width) + " x " + std::to_string(height) + " at super_sampling " +
+              std::to_string(settings.super_sampling) + " (whose samples take no memory) needs about " +
+              std::to_string(needed) + " bytes, over the render's memory_budget of " +
+              std::to_string(settings.memory_budget) + " bytes: lower the resolution or raise memory_budget");
 }
 
 void Material::validate() const {
-  require(finite(diffuse), "diffuse must be finite");
-  require(std::isfinite(specular) && specular >= 0.0f, "specular must be finite and >= 0");
-  require(std::isfinite(shininess) && shininess >= 0.0f, "shininess must be finite and >= 0");
+  require(finite(diffuse) && glm::all(glm::lessThanEqual(glm::abs(diffuse), glm::vec3(kMaxDiffuse))),
+          "diffuse must be finite, each component within +-" + number(kMaxDiffuse));
+  require(specular >= 0.0f && specular <= kMaxSpecular, "specular must be 0 to " + number(kMaxSpecular));
+  require(shininess >= 0.0f && shininess <= kMaxShininess, "shininess must be 0 to " + number(kMaxShininess));
   require(metallic >= 0.0f && metallic <= 1.0f, "metallic must be 0 to 1");
   require(reflectivity >= 0.0f && reflectivity <= 1.0f, "reflectivity must be 0 to 1");
   require(transmission >= 0.0f && transmission <= 1.0f, "transmission must be 0 to 1");
-  require(std::isfinite(ior) && ior > 0.0f, "ior must be finite and > 0");
+  require(ior >= kIorRange[0] && ior <= kIorRange[1], "ior must be " + number(kIorRange[0]) + " to " + number(kIorRange[1]));
   require(std::isfinite(ambient), "ambient must be finite");
 }
 
@@ -430,8 +468,9 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
   }
   const Tracer tracer(scene, std::move(instances), std::move(placed_lights), settings);
 
-  RenderResult result;
   const int w = camera.width(), h = camera.height();
+  require_render_memory(w, h, settings);
+  RenderResult result;
   result.width = w;
   result.height = h;
   result.image.assign(size_t(w) * h * 4, 0.0f);
@@ -444,23 +483,25 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
   const int tiles = tiles_x * tiles_y;
   RenderProgress local_progress;
   RenderProgress& prog = progress ? *progress : local_progress;
-  prog.tiles_done.store(0);
-  prog.tiles_total.store(uint32_t(tiles));
+  prog.pixels_done.store(0);
+  prog.pixels_total.store(uint64_t(w) * h);
   std::atomic<bool> skipped{false};
   tbb::enumerable_thread_specific<RenderStats> per_thread;
   const int ss = settings.super_sampling;
   const bool centre_is_sample = ss % 2 == 1;
 
   const auto render_tile = [&](int tile) {
-    if (prog.cancel_requested.load(std::memory_order_relaxed)) {
-      skipped.store(true);
-      return;
-    }
     RenderStats& stats = per_thread.local();
     const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
     const int x1 = std::min(x0 + ts, w), y1 = std::min(y0 + ts, h);
     for (int y = y0; y < y1; ++y)
       for (int x = x0; x < x1; ++x) {
+        // Read before every pixel (a relaxed load costs nothing next to a pixel's rays), so that a
+        // cancel stops a tile half-way; the pixels left keep their initial values.
+        if (prog.cancel_requested.load(std::memory_order_relaxed)) {
+          skipped.store(true, std::memory_order_relaxed);
+          return;
+        }
         const size_t pixel = size_t(y) * w + x;
         PixelRandom random(pixel);
         glm::vec3 sum(0.0f);
@@ -497,8 +538,8 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
         out[1] = color.y;
         out[2] = color.z;
         out[3] = 1.0f;
+        prog.pixels_done.fetch_add(1, std::memory_order_relaxed);
       }
-    prog.tiles_done.fetch_add(1);
   };
   const auto run = [&] {
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& range) {

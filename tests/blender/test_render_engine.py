@@ -4,6 +4,7 @@ import math
 import os
 import subprocess
 import tempfile
+import time
 
 import bpy
 import numpy as np
@@ -125,6 +126,27 @@ def test_cancel_returns_cleanly(demo_scene, monkeypatch):
                                            progress=lambda fraction: calls.append(fraction) or len(calls) > 1)
     assert result.cancelled and len(calls) == 2
     assert (result.image[..., 3] == 0).any()   # tiles never rendered keep zero colour and alpha
+
+
+def test_esc_stops_a_long_brute_force_f12_within_seconds(demo_scene, monkeypatch):
+    """Esc one second into an F12 that takes minutes (brute force, 4x4 samples, the whole picture one tile):
+    the render returns within seconds of it and leaves no statistics."""
+    demo_scene.render.resolution_x, demo_scene.render.resolution_y = 400, 300
+    props = demo_scene.raylab_render
+    props.structure, props.super_sampling, props.tile_size = "none", 4, 512
+    reports = []
+
+    def progress(self, fraction):  # test_break() turns True one second after the first report
+        reports.append((time.monotonic(), fraction))
+        return reports[-1][0] - reports[0][0] >= 1.0
+
+    monkeypatch.setattr(render_engine.RaylabRenderEngine, "_progress", progress)
+    bpy.ops.render.render()
+    returned = time.monotonic()
+    esc = next(t for t, _ in reports if t - reports[0][0] >= 1.0)
+    assert returned - esc < 20.0, f"returned {returned - esc:.1f} s after Esc"
+    assert any(0.0 < f < 1.0 for _, f in reports), "the progress bar moves while the one tile renders"
+    assert "raylab_last_render" not in demo_scene
 
 
 def test_comparison_operator_measures_all_four_structures(demo_scene):

@@ -459,3 +459,89 @@ TEST(Renderer, RendersDuringCommitsShowOneStateWhole) {
   renderer.join();
   EXPECT_EQ(mixed, 0);
 }
+
+namespace {
+
+// One 4096-pixel tile of brute-force work over thousands of triangles: seconds uncancelled, so that
+// another thread surely sees it half-way.
+struct SlowTile {
+  Scene scene{[] {
+    BuildSettings b;
+    b.kind = StructureKind::None;
+    return b;
+  }()};
+  CameraSettings camera = camera_of(64, 64);
+  std::vector<Light> lights{1};
+  std::vector<Material> materials{1};
+  RenderSettings settings;
+
+  SlowTile() {
+    auto m = std::make_shared<TriangleMesh>();
+    for (uint32_t i = 0; i < 20000; ++i) {  // a stack of small squares under the camera
+      const float z = -1.0f - 0.001f * float(i);
+      const uint32_t k = uint32_t(m->vertices.size());
+      m->vertices.insert(m->vertices.end(), {{-1, -1, z}, {1, -1, z}, {1, 1, z}, {-1, 1, z}});
+      m->triangles.push_back({k, k + 1, k + 2});
+      m->triangles.push_back({k, k + 2, k + 3});
+    }
+    scene.add_instance(scene.add_mesh(m), glm::mat4(1.0f));
+    scene.commit();
+    camera.type = CameraType::Orthographic;
+    camera.ortho_scale = 4.0f;
+    camera.matrix_world = glm::translate(glm::mat4(1.0f), glm::vec3(0, 0, 5));
+    settings.super_sampling = 4;
+    settings.tile_size = 4096;  // the whole picture is one tile
+  }
+};
+
+}  // namespace
+
+TEST(Renderer, ACancelStopsASingleTileHalfWayAndItsProgressCountsPixels) {
+  SlowTile s;
+  RenderProgress progress;
+  float seen = 0.0f;
+  std::thread watcher([&] {
+    // Waits for the first few pixels of the one tile, then cancels.
+    while (progress.pixels_done.load() < 8) std::this_thread::yield();
+    seen = progress.fraction();
+    progress.cancel();
+  });
+  const RenderResult r = render(s.scene, s.camera, s.lights, s.materials, s.settings, &progress);
+  watcher.join();
+  EXPECT_GT(seen, 0.0f);
+  EXPECT_LT(seen, 1.0f);
+  EXPECT_TRUE(r.cancelled);
+  size_t done = 0;
+  for (size_t p = 0; p < size_t(r.width) * r.height; ++p) {
+    const bool rendered = r.image[4 * p + 3] == 1.0f;
+    done += rendered;
+    if (!rendered) {  // untouched: zero colour and alpha, no hit, no work
+      EXPECT_EQ(r.image[4 * p], 0.0f);
+      EXPECT_EQ(r.instance[p], -1);
+      EXPECT_EQ(r.pixel_work[p].rays, 0u);
+    }
+  }
+  EXPECT_GE(done, 8u);
+  EXPECT_LT(done, size_t(r.width) * r.height / 2);  // stopped in the tile, not at its end
+  EXPECT_EQ(r.stats.rays_primary, 16u * done);
+}
+
+TEST(Renderer, AResolutionBeyondTheMemoryBudgetIsRefusedBeforeAnythingIsAllocated) {
+  FloorScene f;
+  f.camera = camera_of(46341, 46341);
+  f.scene.commit();
+  try {
+    render(f.scene, f.camera, f.lights, f.materials, f.settings);
+    FAIL() << "rendered";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("46341 x 46341"), std::string::npos) << what;
+    EXPECT_NE(what.find(std::to_string(render_buffer_bytes(46341, 46341))), std::string::npos) << what;
+    EXPECT_NE(what.find(std::to_string(kDefaultMemoryBudget)), std::string::npos) << what;
+  }
+  f.camera = camera_of(32, 32);
+  f.settings.memory_budget = render_buffer_bytes(32, 32) - 1;
+  EXPECT_THROW(render(f.scene, f.camera, f.lights, f.materials, f.settings), std::invalid_argument);
+  f.settings.memory_budget = render_buffer_bytes(32, 32);
+  EXPECT_FALSE(render(f.scene, f.camera, f.lights, f.materials, f.settings).cancelled);
+}

@@ -22,6 +22,11 @@ def write_image(path, image):
     if pixels.ndim != 3 or pixels.shape[2] not in (3, 4) or pixels.shape[0] == 0 or pixels.shape[1] == 0:
         raise ValueError("image must be (H, W, 4) or (H, W, 3) with H, W > 0")
     height, width = pixels.shape[:2]
+    bad = ~np.isfinite(pixels).all(axis=2)
+    if bad.any():  # as image_io.cpp words it: a NaN is no colour
+        row, column = np.argwhere(bad)[0]
+        raise ValueError(f"cannot write image '{path}': {int(bad.sum())} of its {height * width} pixels are not finite "
+                         f"(NaN or infinite), the first at row {row}, column {column} (row 0 the top row)")
     rgba = np.ones((height, width, 4), np.float32)  # a missing alpha is opaque
     rgba[:, :, :pixels.shape[2]] = pixels
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):

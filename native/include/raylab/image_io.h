@@ -9,7 +9,8 @@ namespace raylab {
 
 // `rgba` holds height rows of width linear RGBA pixels, the top row first. The format follows the
 // extension: .png is written 8-bit with the sRGB curve (values clamped to [0, 1]), .exr as float.
-// Throws std::runtime_error naming the path when it cannot be written.
+// Throws std::runtime_error naming the path when it cannot be written, std::invalid_argument (how many
+// pixels, and where the first is) when a channel of a pixel is NaN or infinite.
 void write_image(const std::string& path, std::span<const float> rgba, int width, int height);
 
 // Every channel of an image file (its first subimage) as float, by the file's channel names: a

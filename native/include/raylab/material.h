@@ -5,6 +5,15 @@
 
 namespace raylab {
 
+// The accepted ranges of the gains that multiply light. Within them every product of the shading
+// stays far inside float's range (renderer.h, kRadianceLimit): a highlight of specular x (shininess
+// + 2) / 2pi times the largest irradiance, a mirror's tint times the largest radiance, a refraction
+// ratio squared.
+inline constexpr float kMaxDiffuse = 1e3f;     // each component, either sign
+inline constexpr float kMaxSpecular = 1e3f;
+inline constexpr float kMaxShininess = 1e6f;
+inline constexpr float kIorRange[2] = {1e-3f, 1e3f};
+
 struct Material {
   glm::vec3 diffuse{0.8f};
   float specular = 0.5f;     // weight of the Phong highlight

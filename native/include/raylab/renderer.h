@@ -34,6 +34,7 @@ struct RenderSettings {
   int threads = 0;               // 0: all
   int tile_size = 32;
   CostRays cost_rays = CostRays::All;  // which of a pixel's rays RenderResult::pixel_work counts
+  size_t memory_budget = kDefaultMemoryBudget;  // for the render's buffers: see require_render_memory
 
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
@@ -53,15 +54,17 @@ struct RenderStats {
   RenderStats& operator+=(const RenderStats& o);  // sums the ray and traversal counters
 };
 
-// Shared between the renderer and whoever waits for it (any thread).
+// Shared between the renderer and whoever waits for it (any thread). Counted in pixels, not tiles,
+// and the cancel is read before every pixel: a single tile in flight still moves the fraction, and a
+// cancel stops any render, however large its tiles, within one pixel's work per thread.
 struct RenderProgress {
-  std::atomic<uint32_t> tiles_done{0};
-  std::atomic<uint32_t> tiles_total{0};
+  std::atomic<uint64_t> pixels_done{0};
+  std::atomic<uint64_t> pixels_total{0};
   std::atomic<bool> cancel_requested{false};
 
   float fraction() const {
-    const uint32_t total = tiles_total.load();
-    return total == 0 ? 0.0f : float(tiles_done.load()) / float(total);
+    const uint64_t total = pixels_total.load();
+    return total == 0 ? 0.0f : float(double(pixels_done.load()) / double(total));
   }
   void cancel() { cancel_requested.store(true); }
 };
@@ -74,7 +77,9 @@ struct RenderResult {
   // height x width: the traversal work of each pixel's rays (settings.cost_rays: all of them, or the
   // primary ones), every sample's; with CostRays::All they add up to stats.traversal.
   std::vector<TraversalStats> pixel_work;
-  bool cancelled = false;         // tiles not rendered keep zero colour
+  // A cancelled render stops between pixels: each pixel is either finished or untouched, and an
+  // untouched one keeps zero colour and alpha, instance -1, distance inf and no work.
+  bool cancelled = false;
   RenderStats stats;
 };
 
@@ -87,6 +92,19 @@ RenderResult render(const Scene& scene, const CameraSettings& camera, std::span<
 RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera, std::span<const Light> lights,
                     std::span<const Material> materials, const RenderSettings& settings,
                     RenderProgress* progress = nullptr);
+
+// The bytes RenderResult's buffers (image, instance, distance, pixel_work) take for a width x height
+// render. Samples are not stored: super-sampling adds none.
+size_t render_buffer_bytes(int width, int height);
+
+// Throws std::invalid_argument, naming the resolution, super-sampling, the bytes needed and
+// settings.memory_budget, when the render's buffers plus `caller_bytes_per_pixel` of the caller's own
+// copies would not fit the budget. render() checks it (with no caller bytes) before it allocates.
+void require_render_memory(int width, int height, const RenderSettings& settings, size_t caller_bytes_per_pixel = 0);
+
+// The largest radiance the renderer computes, component by component: light closer to a point than
+// floats resolve saturates here instead of overflowing, so finite accepted inputs give finite pixels.
+inline constexpr float kRadianceLimit = 1e20f;
 
 // Schlick's approximation of the Fresnel reflectance for light arriving with cos_incident (> 0)
 // at an interface from a medium of index n1 into n2; 1 under total internal reflection.

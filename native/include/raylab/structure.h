@@ -16,6 +16,9 @@ namespace raylab {
 
 enum class StructureKind { None, Aabb, Octree, Bvh, Grid };
 
+// The memory a structure's build, or a render's buffers, may take unless told otherwise.
+inline constexpr size_t kDefaultMemoryBudget = size_t(4) << 30;
+
 struct BuildSettings {
   // The deepest octree the traversal's stack is sized for.
   static constexpr int kMaxDepthLimit = 16;
@@ -28,7 +31,7 @@ struct BuildSettings {
   int max_depth = kAutoDepth;  // octree: depth 0 is the root alone, or kAutoDepth
   int leaf_size = 8;   // octree: split while a node holds more triangles than this; bvh: max per leaf
   TriangleTest triangle_test = TriangleTest::Watertight;
-  size_t memory_budget = size_t(4) << 30;  // a build that would need more stops with BuildError
+  size_t memory_budget = kDefaultMemoryBudget;  // a build that would need more stops with BuildError
 
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
