@@ -272,7 +272,7 @@ class ObjReader {
   }
 
   // Triangles as written; a quad split along its shorter diagonal, as tinyobjloader split it (in float,
-  // the same arithmetic); a polygon of more corners as a fan from its first corner.
+  // the same arithmetic); a polygon of more corners by ear clipping (below).
   void triangulate(const std::vector<uint32_t>& c) {
     if (c.size() == 4) {
       const glm::vec3* v = mesh_.vertices.data();
@@ -288,7 +288,56 @@ class ObjReader {
       }
       return;
     }
-    for (size_t k = 1; k + 1 < c.size(); ++k) mesh_.triangles.emplace_back(c[0], c[k], c[k + 1]);
+    clip_ears(c);
+  }
+
+  // Ear clipping in the plane that the polygon's Newell normal faces most: from the first corner on, a
+  // corner that is not reflex and whose triangle holds no other corner is cut off. A convex polygon
+  // becomes the fan from its first corner; a concave one is covered without a triangle outside it. A
+  // polygon with no such corner left (self-intersecting, or degenerate) ends as a fan of what remains.
+  void clip_ears(const std::vector<uint32_t>& c) {
+    const size_t n = c.size();
+    glm::dvec3 normal(0.0);
+    for (size_t i = 0; i < n; ++i) {
+      const glm::dvec3 a = mesh_.vertices[c[i]], b = mesh_.vertices[c[(i + 1) % n]];
+      normal += glm::dvec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    const glm::dvec3 size = glm::abs(normal);
+    const int drop = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
+    const int u = (drop + 1) % 3, v = (drop + 2) % 3;  // (u, v, drop) is right-handed
+    const double turn = normal[drop] < 0 ? -1.0 : 1.0;  // makes the polygon counter-clockwise in (u, v)
+    const auto point = [&](uint32_t corner) {
+      const glm::vec3& p = mesh_.vertices[corner];
+      return glm::dvec2(p[u], p[v]);
+    };
+    const auto cross = [turn](glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) {
+      return turn * ((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x));
+    };
+
+    std::vector<uint32_t> rest(c);
+    size_t k = 0, tried = 0;
+    while (rest.size() > 3 && tried < rest.size()) {
+      const size_t m = rest.size();
+      const uint32_t a = rest[k % m], b = rest[(k + 1) % m], e = rest[(k + 2) % m];
+      const glm::dvec2 pa = point(a), pb = point(b), pe = point(e);
+      bool ear = cross(pa, pb, pe) >= 0;
+      for (size_t j = 3; ear && j < m; ++j) {
+        const uint32_t other = rest[(k + j) % m];
+        const glm::dvec2 q = point(other);
+        if (q == pa || q == pb || q == pe) continue;
+        ear = !(cross(pa, pb, q) > 0 && cross(pb, pe, q) > 0 && cross(pe, pa, q) > 0);
+      }
+      if (!ear) {
+        k = (k + 1) % m;
+        ++tried;
+        continue;
+      }
+      mesh_.triangles.emplace_back(a, b, e);
+      rest.erase(rest.begin() + std::ptrdiff_t((k + 1) % m));
+      if ((k + 1) % m < k) --k;  // the erased corner stood before a
+      tried = 0;
+    }
+    for (size_t i = 1; i + 1 < rest.size(); ++i) mesh_.triangles.emplace_back(rest[0], rest[i], rest[i + 1]);
   }
 
   const std::string& path_;

@@ -177,8 +177,9 @@ TEST_F(MeshIo, AFileOverTheSizeLimitIsRefusedBeforeReading) {
   EXPECT_EQ(refusal(path), "cannot read mesh '" + path + "': it has 1073741825 bytes, more than the 1 GiB a mesh file may have");
 }
 
-// Quads split as tinyobjloader split them (along the shorter diagonal; the second one if equal), polygons
-// of more corners as a fan from their first. The expected triangles are what tinyobjloader 1.0.6 loaded.
+// Quads split as tinyobjloader split them (along the shorter diagonal; the second one if equal), convex
+// polygons of more corners as a fan from their first. The expected triangles are what tinyobjloader 1.0.6
+// loaded.
 TEST_F(MeshIo, QuadsAndPolygonsGiveTheTrianglesTheyGaveBefore) {
   const std::string path = write("polygons.obj",
                                  "v 0 -1 0\nv 2 0 0\nv 0 1 0\nv -2 0 0\n"          // diagonal 1-3 shorter
@@ -190,6 +191,13 @@ TEST_F(MeshIo, QuadsAndPolygonsGiveTheTrianglesTheyGaveBefore) {
   const std::vector<glm::uvec3> expected = {{0, 1, 2},    {0, 2, 3},    {4, 5, 7},    {5, 6, 7},    {8, 9, 11},
                                             {9, 10, 11},  {12, 13, 14}, {12, 14, 15}, {12, 15, 16}, {17, 18, 19},
                                             {17, 19, 20}, {17, 20, 21}, {17, 21, 22}};
+  EXPECT_EQ(load_mesh(path).triangles, expected);
+}
+
+// An L whose first corner is the one opposite the notch: a fan from it would cover the notch.
+TEST_F(MeshIo, AConcavePolygonIsCoveredWithoutATriangleOutsideIt) {
+  const std::string path = write("l.obj", "v 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nv 0 0 0\nv 2 0 0\nf 1 2 3 4 5 6\n");
+  const std::vector<glm::uvec3> expected = {{1, 2, 3}, {1, 3, 4}, {1, 4, 5}, {0, 1, 5}};  // as tinyobjloader's
   EXPECT_EQ(load_mesh(path).triangles, expected);
 }
 

@@ -150,6 +150,16 @@ def test_quads_and_polygons_give_the_triangles_they_gave_before(tmp_path):
                                               [17, 20, 21], [17, 21, 22]])
 
 
+def test_a_concave_polygon_is_covered_without_a_triangle_outside_it(tmp_path):
+    # An L (area 3) whose first corner is opposite the notch: a fan from it would cover the notch too.
+    path = tmp_path / "l.obj"
+    path.write_text("v 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nv 0 0 0\nv 2 0 0\nf 1 2 3 4 5 6\n")
+    vertices, triangles = raylab.load_mesh(path)
+    corners = vertices[triangles]
+    areas = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])[:, 2] / 2
+    assert len(triangles) == 4 and (areas > 0).all() and areas.sum() == 3
+
+
 def test_a_thin_convex_polygon_gives_all_its_triangles(tmp_path):
     # tinyobjloader's ear clipping gave these five points on an arc one triangle of three.
     path = tmp_path / "arc.obj"

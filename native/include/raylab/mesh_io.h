@@ -7,8 +7,9 @@
 
 namespace raylab {
 
-// Loads an OBJ file as one triangle mesh: quads split along their shorter diagonal, larger polygons as a
-// fan from their first corner. Every number is parsed once, and the value checked is the value used.
+// Loads an OBJ file as one triangle mesh: quads split along their shorter diagonal, larger polygons by ear
+// clipping (a convex one as a fan from its first corner). Every number is parsed once, and the value
+// checked is the value used.
 // A file that cannot be opened or read throws std::runtime_error naming it. Input that would load as
 // something else than it says throws std::invalid_argument naming the file (and line, in UTF-8 with other
 // bytes shown as \xNN): a path with a NUL character, anything but a regular file (a directory, a FIFO, a
