@@ -242,15 +242,18 @@ class ObjReader {
       start = slash + 1;
     }
     ++count;
+    int64_t index = 0;  // of the vertex, parts[0]
+    bool fits = true;
     for (size_t k = 0; k < count; ++k) {
       if (parts[k].empty() && k == 1 && count == 3) continue;  // v//vn
-      int64_t index = 0;
-      if (!integer(parts[k], index))
+      int64_t value = 0;
+      const Whole whole = integer(parts[k], value);
+      if (whole == Whole::kNot)
         fail(line, "face vertex " + quoted(token) + " is not v, v/vt, v//vn or v/vt/vn with whole-number indices");
-      if (index == 0) fail(line, "face vertex " + quoted(token) + " has an index 0: OBJ indices count from 1, or back from -1");
+      if (whole == Whole::kFits && value == 0)
+        fail(line, "face vertex " + quoted(token) + " has an index 0: OBJ indices count from 1, or back from -1");
+      if (k == 0) index = value, fits = whole == Whole::kFits;
     }
-    int64_t index = 0;
-    const bool fits = integer(parts[0], index, true);
     if (fits && index > 0 && uint64_t(index) <= total) return uint32_t(index - 1);
     if (fits && index < 0 && uint64_t(-(index + 1)) < before) return uint32_t(int64_t(before) + index);
     if (parts[0][0] != '-')
@@ -260,15 +263,15 @@ class ObjReader {
                    std::to_string(before) + " vertices precede this line");
   }
 
-  // A whole token of decimal digits with an optional sign. Without `exact`, an integer too large for
-  // int64 counts as an integer (its value is then beyond any file's vertices).
-  static bool integer(std::string_view digits, int64_t& value, bool exact = false) {
+  // A whole token of decimal digits with an optional sign, or too large for int64 (then beyond any
+  // file's vertices, and never 0).
+  enum class Whole { kNot, kFits, kTooLarge };
+  static Whole integer(std::string_view digits, int64_t& value) {
     if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-') digits.remove_prefix(1);
     const char* end = digits.data() + digits.size();
     const auto [stop, ec] = std::from_chars(digits.data(), end, value);
-    if (stop != end || digits.empty()) return false;
-    if (ec == std::errc::result_out_of_range && !exact) value = digits[0] == '-' ? -1 : 1;  // not 0
-    return ec == std::errc() || !exact;
+    if (stop != end || digits.empty()) return Whole::kNot;
+    return ec == std::errc() ? Whole::kFits : Whole::kTooLarge;
   }
 
   // Triangles as written; a quad split along its shorter diagonal, as tinyobjloader split it (in float,
