@@ -1,5 +1,6 @@
 """OBJ files and paths the loader must refuse, with a ValueError naming the file and line, instead of
-loading something else than they say (a NaN as 0, a missing coordinate as 0, another file)."""
+loading something else than they say (a NaN as 0, a missing coordinate as 0, an index wrapped round 2^32 onto
+another vertex, another file), or reading what never ends (a device, a FIFO)."""
 import os
 import subprocess
 import sys
