@@ -12,7 +12,9 @@ the hit), and checks the contract (README, "Exactness and its limits"): with the
 octree and bvh return brute force's closest hit and any-hit answer; with either test no hit has a t
 outside (tmin, tmax] or a non-finite t. Mutated OBJ files (indices past 2^31 and 2^32, numbers of
 hundreds of digits, bytes that are not UTF-8) must load as a valid mesh or raise ValueError/OSError naming
-the file; special files (a FIFO, /dev/zero, a directory) must be refused at once, naming the path. A crash ends the process, which is a failure too. Every finding is
+the file; special files (a FIFO, /dev/zero, a directory) must be refused at once, naming the path. Odd
+threads= values give one thread's answers or a ValueError naming threads. A crash ends the process, which
+is a failure too. Every finding is
 printed with the seed and round that reproduce it, and the rounds' counts go to out/fuzz/summary.json.
 """
 import argparse
@@ -235,6 +237,39 @@ def trace_round(rng, round_, findings, counts):
         counts["rays"] += 2 * len(ACCELERATED)
 
 
+# --- threads= -------------------------------------------------------------------------------------------
+
+# What a caller may pass as threads=: the accepted give the answers of one thread, whatever the
+# machine's cores; the others a ValueError naming threads, never a crash.
+THREADS_ACCEPTED = [None, 0, 1, 2, 3, 7, 64, 65536, 65537, 100000, 2**31 - 1, np.int64(5), np.uint8(2)]
+THREADS_REFUSED = [-1, -2**31, 2**31, 2**63, 2.0, "2", True, [2], np.float32(1)]
+
+
+def threads_round(rng, round_, findings, counts):
+    vertices, triangles = MESHES["shipped"](rng)
+    try:
+        structure = raylab.build(np.asarray(vertices, np.float32), triangles,
+                                 structure=str(rng.choice(["none", *ACCELERATED])))
+    except ValueError:  # the contract's refusals, counted in trace_round
+        return
+    origins, directions, _ = rays(np.asarray(vertices, np.float64), triangles, rng, 300)
+    origins, directions = origins.astype(np.float32), directions.astype(np.float32)
+    one = structure.intersect(origins, directions, threads=1)
+    for threads in [THREADS_ACCEPTED[i] for i in rng.choice(len(THREADS_ACCEPTED), 3, replace=False)]:
+        got = structure.intersect(origins, directions, threads=threads)
+        if not (np.array_equal(got.t, one.t) and np.array_equal(got.triangle, one.triangle)):
+            findings.add(round_, f"intersect with threads={threads!r} differs from one thread")
+        counts["rays"] += len(origins)
+    threads = THREADS_REFUSED[int(rng.integers(0, len(THREADS_REFUSED)))]
+    query = str(rng.choice(["intersect", "occluded", "statuses"]))
+    try:
+        getattr(structure, query)(origins, directions, threads=threads)
+        findings.add(round_, f"{query} accepted threads={threads!r}")
+    except ValueError as error:
+        if "threads" not in str(error):
+            findings.add(round_, f"{query} with threads={threads!r}: the error does not name threads: {error}")
+
+
 # --- OBJ files -----------------------------------------------------------------------------------------
 
 OBJ_BASE = """# a cube of quads with texture coordinates and normals, and a triangle with negative indices
@@ -371,6 +406,7 @@ def main():
         while time.monotonic() - started < args.seconds:
             rng = np.random.default_rng([seed, round_])  # each round reproducible on its own
             trace_round(rng, round_, findings, counts)
+            threads_round(rng, round_, findings, counts)
             for _ in range(20):
                 obj_round(rng, round_, findings, counts, folder)
             special_file_round(round_, findings, counts, folder)

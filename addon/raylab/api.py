@@ -193,8 +193,8 @@ class Structure:
         the COUNTERS as keys (rays, rays_ignored, box_tests, ...); otherwise None. With per_ray=True,
         h.per_ray is a dict with the COUNTERS as keys, each an (N,) uint32 array of every ray's own
         work (h.stats, then filled too, is their sum); otherwise None. threads: how many threads trace
-        (None or 0 = all cores; 1 for single-thread timings, n - 1 to leave a core free); the answers
-        and counts are the same on any number."""
+        (None or 0 = all cores; 1 for single-thread timings, n - 1 to leave a core free; more than
+        the cores run on the cores); the answers and counts are the same on any number."""
         return Hits(self.native.intersect(origins, directions, tmin, tmax, count, per_ray, threads))
 
     def occluded(self, origins, directions, tmin=0.0, tmax=math.inf, count=False, threads=None, per_ray=False):

@@ -1,11 +1,11 @@
 #include "raylab/renderer.h"
 
 #include "raylab/ray_offset.h"
+#include "raylab/threads.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <glm/gtc/constants.hpp>
 
@@ -355,7 +355,7 @@ void RenderSettings::validate() const {
   require(finite(background), "background must be finite");
   require(finite(ambient), "ambient must be finite");
   require(std::isfinite(fixed_epsilon) && fixed_epsilon >= 0.0f, "fixed_epsilon must be finite and >= 0");
-  require(threads >= 0, "threads must be >= 0");
+  require(threads >= 0, "threads must be >= 0 (0: all cores), got " + std::to_string(threads));
   require(tile_size >= 1 && tile_size <= 4096, "tile_size must be 1 to 4096");
 }
 
@@ -505,12 +505,7 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
       for (int tile = range.begin(); tile != range.end(); ++tile) render_tile(tile);
     });
   };
-  if (settings.threads > 0) {
-    tbb::task_arena arena(settings.threads);
-    arena.execute(run);
-  } else {
-    run();
-  }
+  run_on_threads(settings.threads, run);
 
   RenderStats& stats = result.stats;
   for (const RenderStats& s : per_thread) stats += s;

@@ -7,16 +7,24 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <mutex>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 namespace raylab {
 
 namespace {
+
+// A number for the calling thread that no other thread of the process ever gets: thread ids are
+// recycled once a thread ends, and a new thread must not inherit an ended one's uncommitted change.
+uint64_t this_thread_serial() {
+  static std::atomic<uint64_t> next{1};
+  thread_local const uint64_t serial = next.fetch_add(1, std::memory_order_relaxed);
+  return serial;
+}
 
 bool finite(const glm::mat4& m) {
   for (int c = 0; c < 4; ++c)
@@ -64,7 +72,7 @@ struct Scene::Impl {
   };
   // A thread whose changes the published snapshot does not include yet, and its last change.
   struct Editor {
-    std::thread::id thread;
+    uint64_t thread;  // this_thread_serial()
     uint64_t generation;
   };
 
@@ -99,7 +107,7 @@ struct Scene::Impl {
     const uint64_t generation = ++edited.generation;
     if (moves_boxes || changes_instances) edited.top_generation = generation;
     if (changes_instances) edited.instances_generation = generation;
-    const std::thread::id self = std::this_thread::get_id();
+    const uint64_t self = this_thread_serial();
     for (Editor& e : editors)
       if (e.thread == self) {
         e.generation = generation;
@@ -296,7 +304,7 @@ void Scene::commit() {
 
 SceneSnapshotPtr Scene::snapshot() const {
   std::lock_guard lock(impl_->mutex);
-  const std::thread::id self = std::this_thread::get_id();
+  const uint64_t self = this_thread_serial();
   const bool changed_here = std::any_of(impl_->editors.begin(), impl_->editors.end(),
                                         [&](const Impl::Editor& e) { return e.thread == self; });
   if (!impl_->committed || changed_here)

@@ -499,3 +499,26 @@ TEST(SceneThreads, AThreadThatChangedTheSceneMustCommitOthersSeeTheLastCommit) {
   ASSERT_TRUE(before->closest(ray, h));  // a snapshot held keeps its state
   EXPECT_FLOAT_EQ(h.t, 1.0f);
 }
+
+// Thread ids are recycled once a thread ends: a new thread must not inherit the uncommitted change
+// of an ended one (it made none, so it gets the last commit).
+TEST(SceneThreads, ANewThreadNeverInheritsAnEndedThreadsChange) {
+  Scene scene;
+  scene.add_instance(scene.add_mesh(unit_square()), glm::mat4(1.0f));
+  scene.commit();
+  const Ray ray = ray_of({0.5f, 0.5f, 1}, {0, 0, -1});
+  int refused = 0, hits = 0;
+  for (int k = 0; k < 50; ++k) {
+    std::thread([&] { scene.set_transform(0, translation(0, 0, -4.0f - float(k))); }).join();
+    std::thread([&] {
+      try {
+        Hit h;
+        hits += scene.closest(ray, h) && h.t == 1.0f;
+      } catch (const std::logic_error&) {
+        ++refused;
+      }
+    }).join();
+  }
+  EXPECT_EQ(refused, 0);
+  EXPECT_EQ(hits, 50);
+}

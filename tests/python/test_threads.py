@@ -2,6 +2,8 @@
 commits while others intersect, test occlusion and render. Nothing crashes, and every answer comes
 from one committed state whole: the old one or the new one, never a mix and never freed memory.
 The two states of each test are far apart, so each answer tells which state it came from."""
+import subprocess
+import sys
 import threading
 
 import numpy as np
@@ -236,3 +238,71 @@ def test_a_thread_that_changed_the_scene_must_commit_but_others_see_the_last_com
     assert seen == [True]  # the committed state: the sphere still at the origin
     scene.commit()
     assert not scene.intersect(origins, directions).hit[0]
+
+
+def test_a_new_thread_never_inherits_an_ended_threads_uncommitted_change(sphere):
+    # A thread changes the scene and ends without commit(); the system recycles thread ids, and a new
+    # thread given the ended one's id had its queries refused as if it had made the change itself.
+    vertices, triangles = sphere
+    scene = raylab.Scene()
+    scene.add_instance(scene.add_mesh(vertices, triangles), np.eye(4))
+    scene.commit()
+    origins, directions = rays_at([(0, 0)], [(0.0, 0.0)], copies=1)
+    refused, hits = [], []
+
+    def query():
+        try:
+            hits.append(bool(scene.intersect(origins, directions).hit[0]))
+        except RuntimeError as e:
+            refused.append(str(e))
+
+    for k in range(50):
+        changer = threading.Thread(target=lambda k=k: scene.set_transform(0, translate(100 + k)))
+        changer.start()
+        changer.join()
+        reader = threading.Thread(target=query)  # often gets the ended changer's id
+        reader.start()
+        reader.join()
+    assert refused == []
+    assert hits == [True] * 50  # the committed state: the sphere still at the origin
+
+
+# Far more threads than any machine has: TBB terminated the process for more than 65536.
+HUGE_THREADS = (65537, 70000, 100000, 2**31 - 1)
+
+CALLS_WITH_HUGE_THREADS = r"""
+import sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+import raylab
+vertices, triangles = raylab.load_mesh(sys.argv[2])
+structure = raylab.build(vertices, triangles, "bvh")
+scene = raylab.Scene()
+scene.add_instance(scene.add_mesh(vertices, triangles), np.eye(4))
+scene.commit()
+rng = np.random.default_rng(7)
+origins = rng.uniform(-2, 2, (500, 3)).astype(np.float32)
+directions = (-origins).astype(np.float32)
+camera = dict(type="PERSP", matrix_world=np.eye(4) + np.diag([0, 0, 0, 0]), lens=30.0, resolution_x=16,
+              resolution_y=12, resolution_percentage=100, clip_start=0.001, clip_end=100.0)
+camera["matrix_world"][2, 3] = 4.0
+def answers(threads):
+    h = structure.intersect(origins, directions, threads=threads)
+    s = scene.intersect(origins, directions, threads=threads)
+    image = raylab.render(scene, camera, [], [{}], {"threads": threads}).image
+    return [h.t, h.triangle, structure.occluded(origins, directions, threads=threads).hit,
+            structure.statuses(origins, directions, threads=threads).status, s.t, s.instance, image]
+one = answers(1)
+for threads in map(int, sys.argv[3:]):
+    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(answers(threads), one)), threads
+print("same answers")
+"""
+
+
+def test_more_threads_than_the_machine_has_trace_as_its_cores_do(tmp_path):
+    # In a subprocess: the failure was a crash of the interpreter.
+    from conftest import ADDON, MESH_DIR
+    out = subprocess.run([sys.executable, "-c", CALLS_WITH_HUGE_THREADS, str(ADDON), str(MESH_DIR / "sphere.obj"),
+                          *map(str, HUGE_THREADS)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "same answers"

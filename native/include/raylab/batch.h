@@ -1,12 +1,12 @@
 // Many rays at once: the one parallel loop behind every batch query (structures and scenes).
 #pragma once
 
+#include "raylab/threads.h"
 #include "raylab/traversal_record.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <cstddef>
 #include <span>
@@ -15,8 +15,8 @@
 namespace raylab {
 
 // Runs `query(i, stats_or_null)` for every ray index in parallel (TBB), on at most `threads` threads
-// (0: all cores), as the renderer's RenderSettings::threads. With `stats`, each thread counts into its
-// own TraversalStats and the totals are added to *stats at the end. With `per_ray` (one per ray, or
+// (thread_count's rule, as the renderer's RenderSettings::threads). With `stats`, each thread counts
+// into its own TraversalStats and the totals are added to *stats at the end. With `per_ray` (one per ray, or
 // empty for none), each ray counts into its own per_ray[i], and *stats (if given) gets their sum: the
 // totals and each ray's counts are the same StatsRecord's. Every ray's answer is the same on any
 // number of threads: only the split of the work changes.
@@ -48,13 +48,7 @@ void for_each_ray(size_t n, int threads, TraversalStats* stats, Query query, std
     });
     local.combine_each([&](const TraversalStats& s) { *stats += s; });
   };
-  if (threads < 0) throw std::invalid_argument("threads must be >= 0 (0: all cores)");
-  if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(run);
-  } else {
-    run();
-  }
+  run_on_threads(threads, run);
 }
 
 // Closest hits and each ray's status, derived from that ray's own counters as its story would be
