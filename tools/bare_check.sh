@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The bare-machine check: the packaged wheel of the root's Python (out/wheels/, ./raylab package), unpacked
 # into a folder on sys.path as pip and Blender do, in a root that has python3 and numpy but none of
-# raylab's build dependencies (no TBB, no tinyobjloader, no OpenImageIO, no compiler), must import, trace
+# raylab's build dependencies (no TBB, no OpenImageIO, no compiler), must import, trace
 # rays, and resolve every library either to its own bundle or to the base system.
 #
 #   tools/bare_check.sh ROOT_NAME SUITE

@@ -10,18 +10,21 @@ triangles, a shipped mesh under a random affine map) with random settings, trace
 (near-surface origins, rays at vertices and edges, axis-parallel and denormal directions, tmax just past
 the hit), and checks the contract (README, "Exactness and its limits"): with the watertight test aabb,
 octree and bvh return brute force's closest hit and any-hit answer; with either test no hit has a t
-outside (tmin, tmax] or a non-finite t. Mutated OBJ files must load as a valid
-mesh or raise ValueError/OSError. Odd threads= values give one thread's answers or a ValueError naming
-threads. Renders of every structure are cancelled at random moments (a progress callback that returns
-True after a random number of calls, or an event another thread sets): each must return, say cancelled
-exactly when some pixel is left unrendered (zero alpha), count the primary rays of the rendered pixels
-alone, and hold finite pixels. A crash ends the process, which is a failure too. Every finding is
+outside (tmin, tmax] or a non-finite t. Mutated OBJ files (indices past 2^31 and 2^32, numbers of
+hundreds of digits, bytes that are not UTF-8) must load as a valid mesh or raise ValueError/OSError naming
+the file; special files (a FIFO, /dev/zero, a directory) must be refused at once, naming the path. Odd
+threads= values give one thread's answers or a ValueError naming threads. Renders of every structure are
+cancelled at random moments (a progress callback that returns True after a random number of calls, or an
+event another thread sets): each must return, say cancelled exactly when some pixel is left unrendered
+(zero alpha), count the primary rays of the rendered pixels alone, and hold finite pixels. A crash ends
+the process, which is a failure too. Every finding is
 printed with the seed and round that reproduce it, and the rounds' counts go to out/fuzz/summary.json.
 """
 import argparse
 import json
 import math
 import os
+import signal
 import sys
 import tempfile
 import threading
@@ -298,7 +301,14 @@ v 0 1 3
 f -3 -2 -1
 """
 OBJ_TOKENS = ["nan", "inf", "-inf", "1e39", "-1e39", "1e-46", "a", "1,5", "", "0x10", "-0", "1e", "+", "f", "v",
-              "//", "/", "-1", "0", "99999999999999999999", "-99", "3.4e38", "1e308", "\t", "#", "\\", "vn", "o x"]
+              "//", "/", "-1", "0", "99999999999999999999", "-99", "3.4e38", "1e308", "\t", "#", "\\", "vn", "o x",
+              # indices that wrap round 2^31 and 2^32 onto a vertex of the file
+              "2147483648", "2147483650", "4294967297", "4294967296", "8589934595", "-4294967295", "-2147483649",
+              "4294967297/1/1", "1//4294967297",
+              # numbers longer than a float parser's buffer: 0.1 and 1.0
+              "0." + "0" * 400 + "1e400", "1" + "0" * 400 + "e-400", "1" * 500]
+# Bytes that are not UTF-8, put into a line: the message must still be a str naming the file.
+OBJ_BYTES = [b"\xff", b"\xfe\xff", b"\xc3", b"\xed\xa0\x80", b"\x80", b"\x00", b"\xf4\x90\x80\x80"]
 
 
 # --- cancelled renders ---------------------------------------------------------------------------------
@@ -397,20 +407,58 @@ def mutate(text, rng):
 
 def obj_round(rng, round_, findings, counts, folder):
     path = os.path.join(folder, "mutated.obj")
-    text = mutate(OBJ_BASE, rng)
-    with open(path, "w", encoding="latin-1") as file:
-        file.write(text)
+    data = mutate(OBJ_BASE, rng).encode("latin-1")
+    if rng.random() < 0.2:  # raw bytes into a line
+        at = int(rng.integers(0, len(data) + 1))
+        data = data[:at] + OBJ_BYTES[int(rng.integers(0, len(OBJ_BYTES)))] + data[at:]
+    text = data.decode("latin-1")
+    with open(path, "wb") as file:
+        file.write(data)
     counts["obj_files"] += 1
     try:
         vertices, triangles = raylab.load_mesh(path)
-    except (ValueError, OSError):
+    except (ValueError, OSError) as error:
         counts["obj_refused"] += 1
+        if path not in str(error):
+            findings.add(round_, f"load_mesh refused without naming the file: {type(error).__name__}({str(error)!r}) "
+                                 f"on:\n{text!r}")
         return
     except Exception as error:  # anything else is not the loader's contract
         findings.add(round_, f"load_mesh raised {type(error).__name__}: {error} on:\n{text}")
         return
     if not np.isfinite(vertices).all() or (len(triangles) and triangles.max() >= len(vertices)):
         findings.add(round_, f"load_mesh returned a mesh with non-finite vertices or bad indices from:\n{text}")
+
+
+class Hang(Exception):
+    pass
+
+
+def raise_hang(*_):
+    raise Hang()
+
+
+def special_file_round(round_, findings, counts, folder):
+    """A FIFO, a device that never ends, a directory: a clear ValueError/OSError naming the path, at once
+    (an alarm ends a read that blocks or runs on)."""
+    fifo = os.path.join(folder, "fifo.obj")
+    if not os.path.exists(fifo):
+        os.mkfifo(fifo)
+    for path in (fifo, "/dev/zero", folder):
+        counts["special_files"] += 1
+        previous = signal.signal(signal.SIGALRM, raise_hang)
+        signal.alarm(10)
+        try:
+            raylab.load_mesh(path)
+            findings.add(round_, f"load_mesh loaded {path}")
+        except (ValueError, OSError) as error:
+            if path not in str(error):
+                findings.add(round_, f"load_mesh refused {path} without naming it: {error!r}")
+        except Hang:
+            findings.add(round_, f"load_mesh did not return within 10 s on {path}")
+        finally:
+            signal.alarm(0)
+            signal.signal(signal.SIGALRM, previous)
 
 
 def main():
@@ -422,8 +470,8 @@ def main():
     seed = args.seed if args.seed is not None else int.from_bytes(os.urandom(4), "little")
     print(f"fuzz: seed {seed}, {args.seconds:.0f} s", flush=True)
     findings = Findings(seed)
-    counts = dict(rounds=0, builds=0, refused_builds=0, rays=0, obj_files=0, obj_refused=0, renders=0,
-                  cancelled_renders=0)
+    counts = dict(rounds=0, builds=0, refused_builds=0, rays=0, obj_files=0, obj_refused=0, special_files=0,
+                  renders=0, cancelled_renders=0)
     started = time.monotonic()
     with tempfile.TemporaryDirectory() as folder, np.errstate(all="ignore"):
         round_ = 0
@@ -434,6 +482,7 @@ def main():
             cancel_round(rng, round_, findings, counts)
             for _ in range(20):
                 obj_round(rng, round_, findings, counts, folder)
+            special_file_round(round_, findings, counts, folder)
             round_ += 1
             counts["rounds"] = round_
     os.makedirs(args.out, exist_ok=True)
@@ -442,6 +491,7 @@ def main():
         json.dump(summary, file, indent=2)
     print(f"fuzz: {counts['rounds']} rounds, {counts['builds']:,} builds ({counts['refused_builds']} refused), "
           f"{counts['rays']:,} rays, {counts['obj_files']:,} mutated OBJ files ({counts['obj_refused']:,} refused), "
+          f"{counts['special_files']:,} special files, "
           f"{counts['renders']} renders cancelled at random ({counts['cancelled_renders']} before the end): "
           f"{len(findings.items)} findings")
     sys.exit(1 if findings.items else 0)

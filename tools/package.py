@@ -1,9 +1,9 @@
 """./raylab package: raylab as users install it.
 
     out/wheels/raylab_core-<version>-cp3XX-cp3XX-manylinux_2_34_x86_64.whl
-        the native core for one Python (`raylab_core._raylab`, its TBB and tinyobjloader beside it in
-        raylab_core/libs/) with the plain-Python library `raylab`: `pip install` it into any Python of
-        that version and `import raylab` works, no Blender needed.
+        the native core for one Python (`raylab_core._raylab`, its TBB beside it in raylab_core/libs/)
+        with the plain-Python library `raylab`: `pip install` it into any Python of that version and
+        `import raylab` works, no Blender needed.
     out/raylab-<version>-linux-x64.zip
         the extension for Blender 4.2 and later: the add-on, the levels and those wheels, listed under
         `wheels` in blender_manifest.toml. Made and checked by Blender's own `extension build` and
@@ -56,7 +56,6 @@ PYTHON_ROOTS = {"3.11": None, "3.13": "debian13", "3.14": "sid"}
 # Bundled code and data, credited in the extension's manifest (licences in the README).
 COPYRIGHT = ["2025-2026 raylab developers",
              "2005-2021 Intel Corporation (oneTBB, Apache-2.0)",
-             "2012-2019 Syoyo Fujita and many contributors (tinyobjloader, MIT)",
              "2012 Lee Perry-Smith (goat head mesh, CC BY 3.0)"]
 WEBSITE = "https://github.com/raylab-dev/raylab"
 

@@ -133,8 +133,9 @@ class InstancePart(_Record):
 def load_mesh(path):
     """Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles).
 
-    OSError if the file cannot be read; ValueError for a directory, a path with a NUL character, or a
-    file whose `v` lines lack three finite numbers (the message names the file and line).
+    OSError if the file cannot be read; ValueError for a path with a NUL character, anything but a regular
+    file (a directory, a FIFO, a device), a file over 1 GiB, or a file whose `v` lines lack three finite
+    numbers or whose faces name no vertex of the file (the message names the file and line).
     """
     return _raylab.load_mesh(path)  # path: str, bytes or os.PathLike, checked natively
 
