@@ -165,6 +165,13 @@ class Lines {
   size_t pos_ = 0, at_ = 0, number_ = 0;
 };
 
+// A number's token without a leading '+', which from_chars does not take and OBJ writers may write
+// (tinyobjloader read it); "+-1" keeps its '+' and is no number.
+std::string_view without_plus(std::string_view token) {
+  if (token.size() > 1 && token[0] == '+' && token[1] != '-') token.remove_prefix(1);
+  return token;
+}
+
 class ObjReader {
  public:
   ObjReader(const std::string& path, std::string_view text) : path_(path), text_(text) {}
@@ -215,8 +222,7 @@ class ObjReader {
 
   // The float nearest to the token's decimal value, parsed once, however many digits it has.
   float coordinate(size_t line, std::string_view token) const {
-    std::string_view digits = token;
-    if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-') digits.remove_prefix(1);  // as tinyobjloader read it
+    const std::string_view digits = without_plus(token);
     float value = 0;
     const char* end = digits.data() + digits.size();
     const auto [stop, ec] = std::from_chars(digits.data(), end, value);
@@ -266,8 +272,8 @@ class ObjReader {
   // A whole token of decimal digits with an optional sign, or too large for int64 (then beyond any
   // file's vertices, and never 0).
   enum class Whole { kNot, kFits, kTooLarge };
-  static Whole integer(std::string_view digits, int64_t& value) {
-    if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-') digits.remove_prefix(1);
+  static Whole integer(std::string_view token, int64_t& value) {
+    const std::string_view digits = without_plus(token);
     const char* end = digits.data() + digits.size();
     const auto [stop, ec] = std::from_chars(digits.data(), end, value);
     if (stop != end || digits.empty()) return Whole::kNot;
