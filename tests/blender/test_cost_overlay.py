@@ -1,5 +1,6 @@
 """The viewport cost heat map's rays and counts (headless): its rays go through the view's cells as the
 camera sees them, and a cell did work exactly where its ray comes near the mesh."""
+import gc
 import os
 import sys
 
@@ -159,6 +160,20 @@ def test_the_objects_triangle_tests_add_up_to_the_camera_rays_and_the_dense_sphe
     assert sum(share for _, _, share in ranked) == pytest.approx(1.0)
     assert cost_overlay.last_object_costs(scene) == (costs, None)
     assert cost_overlay.object_costs(scene)[0] is costs  # nothing changed: not traced again
+
+
+def test_a_scene_model_made_after_a_file_load_is_never_taken_for_the_one_it_replaced(many_objects):
+    """Opening a file lets go of every scene model (structure_cache.clear): the next one Python allocates
+    often takes the freed one's address. The ranking, the cost map and the probe must trace the new model,
+    not return what the old one (another structure, another file) gave."""
+    scene = many_objects
+    for structure in ["octree", "bvh", "grid"] * 3:
+        structure_cache.clear()
+        gc.collect()  # what Python does sooner or later; 3.14's incremental collector does it at once
+        scene.raylab.structure = structure
+        costs, why_not = cost_overlay.object_costs(scene)
+        assert why_not is None
+        assert sum(costs.counts.values()) == camera_ray_counts(scene)["triangle_tests"].sum(), structure
 
 
 def test_an_object_out_of_the_cameras_view_costs_nothing_and_a_move_ranks_again(many_objects):

@@ -237,8 +237,8 @@ def test_one_raylab_scene_per_blender_scene(monkey_scene):
     assert structure_cache.structure_for(monkey, scene.raylab).structure is not None
     model = structure_cache.scene_model(scene)
     assert model.instances == [monkey.name_full]
-    generation = model.generation  # a refused instance is not tried again on every redraw
-    assert structure_cache.scene_model(scene).generation == generation
+    version = model.version  # a refused instance is not tried again on every redraw
+    assert structure_cache.scene_model(scene).version == version
 
 
 @pytest.mark.parametrize("structure", ["octree", "bvh", "aabb"])

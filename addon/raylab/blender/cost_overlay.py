@@ -81,7 +81,7 @@ def cost_grid(scene, perspective_matrix, width, height, depsgraph=None, region_k
         return None
     columns, rows = grid_size(width, height, settings.cost_cells)
     matrix = np.asarray(perspective_matrix, dtype=np.float64)
-    key = (matrix.tobytes(), columns, rows, settings.cost_counter, id(model), model.generation)
+    key = (matrix.tobytes(), columns, rows, settings.cost_counter, model.version)
     grid = _grids.get((scene.name_full, region_key))
     if grid is not None and grid.key == key:
         return grid
@@ -191,7 +191,7 @@ def _object_costs(scene, depsgraph):
     if not model.committed or not model.instances:
         return None, model.error or "No shown mesh"
     key = (repr({k: v.tobytes() if isinstance(v, np.ndarray) else v for k, v in camera.items()}),
-           len(points), id(model), model.generation)
+           len(points), model.version)
     costs = _costs.get(scene.name_full, (None,))[0]
     if costs is not None and costs.key == key:
         return costs, None

@@ -153,7 +153,7 @@ def _probe_key(scene, model):
     fan = probe_rays(scene, fan=True) if settings.fan_enabled else (None, None, None)
     key = (why_not, None if origins is None else (origins.tobytes(), directions.tobytes()),
            settings.probe_length, None if fan[0] is None else (fan[0].tobytes(), fan[1].tobytes()),
-           id(model), model.generation)
+           model.version)
     return key, (origins, directions, why_not), fan
 
 

@@ -13,6 +13,7 @@ in the WORLD, so its mesh is the object's world-space vertices under an identity
 replaced when the object moves; the drawn box is then the world AABB and the probe tests that box.
 """
 import hashlib
+import itertools
 
 import bpy
 import numpy as np
@@ -29,6 +30,9 @@ stats = {"structure_builds": 0, "structure_refits": 0, "mesh_reads": 0}
 _meshes = {}   # object name -> (the object's identity, _Mesh)
 _dirty = set()  # object names whose evaluated geometry changed since it was read
 _models = {}   # Blender scene name -> SceneModel
+# Every commit of every model takes the next number: a cache keyed on a model's version cannot mistake a
+# new model for an old one (id() of a freed model is reused by the next one Python allocates).
+_versions = itertools.count(1)
 
 
 class _Mesh:
@@ -98,7 +102,7 @@ class SceneModel:
         self.refits = 0       # meshes refitted since the last commit
         self.error = None     # why the last commit failed
         self.committed = False
-        self.generation = 0   # commits so far: what the probe's cache key reads
+        self.version = next(_versions)  # what the probe's and cost map's caches key on
 
     def triangle_count(self):
         return sum(self.parts[name].triangle_count for name in self.instances)
@@ -204,7 +208,7 @@ class SceneModel:
             self._commit()
 
     def _commit(self):
-        self.generation += 1
+        self.version = next(_versions)
         for part in self.parts.values():
             part.entry = None
         try:
