@@ -162,3 +162,17 @@ def test_the_preference_turns_the_overlay_on_in_opened_files(monkeypatch):
             scene.raylab.property_unset("show")
         bpy.data.scenes.remove(untouched)
         bpy.data.scenes.remove(switched)
+
+
+def test_the_viewport_and_the_render_define_the_structure_settings_alike():
+    """scene.raylab and scene.raylab_render hold the same structure settings: the same names, limits and
+    descriptions (one definition), so a depth or leaf size the viewport shows is one F12 can take."""
+    viewport, render = (bpy.types.Scene.bl_rna.properties[a].fixed_type.properties for a in properties.GROUPS)
+    for name in ("max_depth", "leaf_size"):
+        limits = [(p.name, p.hard_min, p.hard_max, p.soft_min, p.soft_max, p.description)
+                  for p in (viewport[name], render[name])]
+        assert limits[0] == limits[1], name
+    assert viewport["max_depth_auto"].description == render["max_depth_auto"].description
+    assert {item.identifier for item in render["structure"].enum_items} == set(raylab.STRUCTURES)
+    assert {item.identifier for item in viewport["structure"].enum_items} == {
+        name for name, info in raylab.STRUCTURE_INFO.items() if info["has_boxes"]}

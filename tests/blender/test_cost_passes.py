@@ -11,7 +11,7 @@ import pytest
 
 import raylab
 from raylab import _raylab_images
-from raylab.blender import compat, cost_passes, default_scene, properties, scene_export
+from raylab.blender import build_settings, compat, cost_passes, default_scene, scene_export
 
 RESOLUTION = (60, 45)
 
@@ -83,8 +83,7 @@ def api_counts(scene):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     exported = scene_export.export_scene(depsgraph)
     props = scene.raylab_render
-    model, _ = scene_export.build_scene(exported, structure=props.structure,
-                                        max_depth=properties.depth_setting(props), leaf_size=props.leaf_size)
+    model, _ = scene_export.build_scene(exported, **build_settings.build_kwargs(props))
     width, height = raylab.image_size(exported.camera)
     ys, xs = np.mgrid[0:height, 0:width]
     origins, directions = raylab.camera_rays(exported.camera, np.column_stack([xs.ravel(), ys.ravel()]) + 0.5)

@@ -14,7 +14,7 @@ import pytest
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import compare, heat_maps, levels, properties, scene_export  # noqa: E402
+from raylab.blender import build_settings, compare, heat_maps, levels, scene_export  # noqa: E402
 
 LEVEL = "where_work_goes"
 
@@ -48,8 +48,7 @@ def pixel_costs(scene, structure):
     (raylab.camera_rays) with intersect(per_ray=True) on the scene built as the job builds it."""
     exported = scene_export.export_scene(bpy.context.evaluated_depsgraph_get())
     props = scene.raylab_render
-    model, _ = scene_export.build_scene(exported, structure=structure, max_depth=properties.depth_setting(props),
-                                        leaf_size=props.leaf_size)
+    model, _ = scene_export.build_scene(exported, **build_settings.build_kwargs(props, structure))
     camera = heat_maps.heat_map_camera(exported.camera)
     width, height = raylab.image_size(camera)
     pixels = np.stack(np.meshgrid(np.arange(width), np.arange(height)), axis=-1).reshape(-1, 2) + 0.5
@@ -162,7 +161,7 @@ def test_the_level_s_tasks_tick_as_the_student_does_them(level_scene):
     assert ticks(scene) == [True, True, False]
     scene.raylab.probe_pixel_x, scene.raylab.probe_pixel_y = x, y
     assert scene.raylab.structure == "octree"
-    assert scene.raylab.probe_triangles_tested == octree["hardest"]
+    assert scene.raylab.probe_triangle_tests == octree["hardest"]
 
     # (c) Rendering again without a change is no cheaper; moving the rod off the goat is.
     assert bpy.ops.raylab.heat_maps(time_limit=0.0) == {'FINISHED'}

@@ -424,11 +424,10 @@ def test_bvh_1_leaf_size_task_ticks_once_the_leaves_it_changes_are_shown():
 def bvh_hardest_pixel(scene):
     """The BVH's hardest pixel as the heat maps count it (tests/blender/test_heat_maps.py checks that the
     record is this): every map pixel's camera ray traced through the API, the most triangle tests."""
-    from raylab.blender import heat_maps, properties, scene_export
+    from raylab.blender import build_settings, heat_maps, scene_export
     exported = scene_export.export_scene(bpy.context.evaluated_depsgraph_get())
     props = scene.raylab_render
-    model, _ = scene_export.build_scene(exported, structure="bvh", max_depth=properties.depth_setting(props),
-                                        leaf_size=props.leaf_size)
+    model, _ = scene_export.build_scene(exported, **build_settings.build_kwargs(props, "bvh"))
     camera = heat_maps.heat_map_camera(exported.camera)
     width, height = raylab.image_size(camera)
     pixels = np.stack(np.meshgrid(np.arange(width), np.arange(height)), axis=-1).reshape(-1, 2) + 0.5

@@ -75,14 +75,14 @@ def test_probe_tells_the_cores_story(torus_scene, case):
     story = core_scene(torus, scene.raylab).story(origins[0], directions[0])
     assert story.status == case
     assert result["status"] == case
-    assert result["triangles_tested"] == story.stats["triangle_tests"]
-    assert result["boxes_tested"] == story.stats["box_tests"]
+    assert result["triangle_tests"] == story.stats["triangle_tests"]
+    assert result["box_tests"] == story.stats["box_tests"]
     assert result["nodes_visited"] == story.stats["nodes_visited"]
     assert result["triangle_total"] == len(torus.data.polygons) * 2
     # What the levels read is the same evaluation.
     settings = scene.raylab
-    assert (settings.probe_status, settings.probe_triangles_tested, settings.probe_boxes_tested,
-            settings.probe_nodes_visited) == (case, result["triangles_tested"], result["boxes_tested"],
+    assert (settings.probe_status, settings.probe_triangle_tests, settings.probe_box_tests,
+            settings.probe_nodes_visited) == (case, result["triangle_tests"], result["box_tests"],
                                               result["nodes_visited"])
     if case == "hit_object":
         assert (Vector(result["hit_point"]) - Vector(story.hit["point"])).length < 1e-4
@@ -95,7 +95,7 @@ def test_probe_tells_the_cores_story(torus_scene, case):
         assert result["hit_point"] is None
     text = probe.status_text(scene)
     assert text[0] == probe.status_message(story, "octree")
-    assert f"triangles tested {result['triangles_tested']} / {result['triangle_total']}" in text[1]
+    assert f"triangle tests {result['triangle_tests']} / {result['triangle_total']}, box tests {result['box_tests']}" in text[1]
 
 
 def test_moving_the_ray_object_changes_the_status(torus_scene):
@@ -105,7 +105,7 @@ def test_moving_the_ray_object_changes_the_status(torus_scene):
     ray.location.z += 10.0  # far above the torus, still aiming along the same direction
     bpy.context.view_layer.update()
     assert scene.raylab.probe_status == "missed_root"
-    assert scene.raylab.probe_triangles_tested == 0
+    assert scene.raylab.probe_triangle_tests == 0
     aim(ray, torus, *CASES["missed_nodes"])
     assert scene.raylab.probe_status == "missed_nodes"
 

@@ -256,7 +256,7 @@ def octree_2(run):
     yield from step(run, "Max depth 6 (the ray still misses)", 3, status=status_of(scene))
     aim_ray(scene, ["hit_object"])
     yield from step(run, "the ray dragged onto the bunny", 4, status=status_of(scene),
-                    triangles_tested=lambda: scene.raylab.probe_triangles_tested,
+                    triangle_tests=lambda: scene.raylab.probe_triangle_tests,
                     triangle_total=lambda: probe.current_result(scene)["triangle_total"])
 
 
@@ -289,7 +289,7 @@ def bvh_2(run):
     scene.raylab.fan_enabled = True
     yield from step(run, "Fan on", 2)
     scene.raylab.structure = "octree"
-    yield from step(run, "Structure: Octree", 3, triangles_tested=lambda: scene.raylab.probe_triangles_tested)
+    yield from step(run, "Structure: Octree", 3, triangle_tests=lambda: scene.raylab.probe_triangle_tests)
     yield from render_f12()
     yield from step(run, "F12", 4)
 
@@ -331,7 +331,7 @@ def where_work_goes(direction):
         yield from step(run, "Render Heat Maps", 1, bvh_hardest=record["structures"]["bvh"]["hardest"])
         scene.raylab.probe_pixel_x, scene.raylab.probe_pixel_y = record["structures"]["octree"]["probe_pixel"]
         yield from step(run, "Pixel X, Y on the octree's hardest", 2,
-                        triangles_tested=lambda: scene.raylab.probe_triangles_tested,
+                        triangle_tests=lambda: scene.raylab.probe_triangle_tests,
                         octree_hardest=record["structures"]["octree"]["hardest"])
         rod = scene.objects["Rod"]
         start = rod.location.copy()

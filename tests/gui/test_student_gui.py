@@ -65,7 +65,7 @@ def test_the_rod_task_ticks_along_every_axis_either_way(runs):
 def test_the_probe_pixel_task_puts_the_probe_on_the_octree_s_hardest_pixel(runs):
     for run in runs_of(runs, "where_work_goes"):
         step = run["steps"][1]
-        assert step["triangles_tested"] == step["octree_hardest"], run["way"]
+        assert step["triangle_tests"] == step["octree_hardest"], run["way"]
 
 
 def test_bvh_1_s_leaf_size_task_changes_the_boxes_drawn(runs):
@@ -95,4 +95,4 @@ def test_what_the_tasks_ask_the_student_to_read_is_there(runs):
     assert goat["steps"][-1]["rays_ignored"] > 0
     (octree_2,) = runs_of(runs, "octree_2")
     hit = octree_2["steps"][-1]
-    assert hit["status"] == "hit_object" and 0 < hit["triangles_tested"] < hit["triangle_total"] / 10
+    assert hit["status"] == "hit_object" and 0 < hit["triangle_tests"] < hit["triangle_total"] / 10

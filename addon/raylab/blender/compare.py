@@ -17,7 +17,7 @@ import bpy
 
 from .. import api
 
-from . import preferences, properties, render_stats, text_fit
+from . import build_settings, preferences, render_stats, text_fit
 from .scene_export import build_scene, export_scene, render_settings
 
 COMPARISON = "raylab_comparison"   # scene ID property: {structure: render_stats.record} (estimated or not)
@@ -57,7 +57,7 @@ class CompareJob:
     cancel(). Inputs are plain data (an ExportedScene, render settings, build parameters)."""
     exported: object
     settings: dict
-    build: dict                       # max_depth, leaf_size
+    build: dict                       # build_settings.build_kwargs: each structure builds as its own kind
     structures: tuple = api.STRUCTURES
     time_limit: float = 0.0           # seconds; 0 = none
     results: list = field(default_factory=list)
@@ -111,7 +111,7 @@ class CompareJob:
             self.fraction = start + share * fraction
             return self._cancel.is_set()
 
-        scene, _ = build_scene(self.exported, structure=structure, **self.build)
+        scene, _ = build_scene(self.exported, **{**self.build, "structure": structure})
         estimate = None
         if self.time_limit > 0.0:
             estimated = self._estimate(scene)
@@ -155,7 +155,8 @@ def make_job(exported, props, super_sampling=None, structures=api.STRUCTURES, ti
     """The job for an export with the settings of scene.raylab_render (read now, on the main thread);
     cost_rays: which rays the results' per-pixel cost counts (api.COST_RAYS)."""
     return CompareJob(exported, render_settings(exported, props, super_sampling, cost_rays),
-                      dict(max_depth=properties.depth_setting(props), leaf_size=props.leaf_size), tuple(structures), time_limit)
+                      build_settings.build_kwargs(props), tuple(structures),
+                      time_limit)
 
 
 def compare_structures(exported, props, super_sampling=None, structures=api.STRUCTURES, time_limit=0.0):

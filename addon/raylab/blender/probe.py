@@ -8,8 +8,8 @@ Everything drawn and written comes from the story: its counters are the renderer
 and a ray's t is the same in world and object space (the core does not renormalise the direction).
 
 API for the levels:
-    evaluate_probe(context_or_scene) -> dict(status, triangles_tested, triangle_total, boxes_tested,
-                                             nodes_visited, hit_point)
+    evaluate_probe(context_or_scene) -> dict(status, triangle_tests, triangle_total, box_tests,
+                                             nodes_visited, hit_point): the counters as the core names them
 """
 import math
 
@@ -18,7 +18,7 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from .. import api
-from . import draw, scene_export, structure_cache
+from . import draw, properties, scene_export, structure_cache
 
 STATUSES = api.RAY_STATUSES  # in rising priority
 STATUS_COLORS = {
@@ -142,8 +142,18 @@ class ProbeResult:
         self.fan = fan          # (origins, ends, statuses, indices of the rays drawn as lines), world space
 
 
+PROBE_COUNTERS = ("triangle_tests", "box_tests", "nodes_visited")  # of api.COUNTERS: what the probe shows
+
+
+def counts_text(public):
+    """The probe's counts line, in the counters' labels: "triangle tests 12 / 968, box tests 30, ..."."""
+    parts = [f"{api.COUNTER_INFO[c]['label'].lower()} {public[c]}" for c in PROBE_COUNTERS]
+    parts[0] += f" / {public['triangle_total']}"
+    return ", ".join(parts)
+
+
 def _empty_public():
-    return dict(status="", triangles_tested=0, triangle_total=0, boxes_tested=0, nodes_visited=0, hit_point=None)
+    return dict(status="", triangle_total=0, hit_point=None, **dict.fromkeys(PROBE_COUNTERS, 0))
 
 
 def _probe_key(scene, model):
@@ -175,13 +185,10 @@ def probe_result(scene, depsgraph=None):
     else:
         story = model.scene.story(origins[0], directions[0])
         public.update(status=story.status, triangle_total=model.triangle_count(),
-                      triangles_tested=int(story.stats["triangle_tests"]), boxes_tested=int(story.stats["box_tests"]),
-                      nodes_visited=int(story.stats["nodes_visited"]))
+                      **{counter: int(story.stats[counter]) for counter in PROBE_COUNTERS})
         if story.hit is not None:
             public["hit_point"] = tuple(float(c) for c in origins[0] + story.hit["t"] * directions[0])
-        text = [status_message(story, settings.structure),
-                f"triangles tested {public['triangles_tested']} / {public['triangle_total']}, "
-                f"boxes tested {public['boxes_tested']}, nodes visited {public['nodes_visited']}"]
+        text = [status_message(story, settings.structure), counts_text(public)]
         fan_drawing = None
         if fan[0] is not None:
             fan_drawing, fan_counts = _trace_fan(model.scene, fan, settings.probe_length, settings.fan_size)
@@ -234,8 +241,8 @@ _results = {}  # scene name -> ProbeResult
 
 
 def evaluate_probe(context_or_scene):
-    """Evaluates the scene's probe ray (traced again if anything changed since); returns dict(status, triangles_tested, triangle_total,
-    boxes_tested, nodes_visited, hit_point). status is one of STATUSES, or "" when there is no ray
+    """Evaluates the scene's probe ray (traced again if anything changed since); returns dict(status,
+    triangle_tests, triangle_total, box_tests, nodes_visited, hit_point). status is one of STATUSES, or "" when there is no ray
     (no ray object / camera) or no mesh; hit_point is the world (x, y, z) of the nearest hit or None."""
     scene = _scene_of(context_or_scene)
     return dict(probe_result(scene).public)
@@ -388,6 +395,7 @@ _handles = []
 
 
 def register():
+    properties.features.probe_result = current_result
     bpy.utils.register_class(RAYLAB_OT_probe_add)
     _handles.append((bpy.types.SpaceView3D.draw_handler_add(_draw_view, (), 'WINDOW', 'POST_VIEW'), 'WINDOW'))
     _handles.append((bpy.types.SpaceView3D.draw_handler_add(_draw_text, (), 'WINDOW', 'POST_PIXEL'), 'WINDOW'))
@@ -400,4 +408,5 @@ def unregister():
     _handles.clear()
     bpy.app.handlers.load_post.remove(_on_load)
     bpy.utils.unregister_class(RAYLAB_OT_probe_add)
+    properties.features.probe_result = None
     _results.clear()

@@ -4,6 +4,9 @@ overlays and the ray probe show) and scene.raylab_render (the render engine and 
 The probe's status fields are read-only: their getters return the probe's last evaluation (and
 evaluate it first when the probe, the objects or the settings changed since), so a level's task
 checker always reads what the viewport shows.
+
+The properties sit below the features they drive: the probe and the spin timer hand their entry points
+in through `features` when they register, so nothing here imports them back.
 """
 import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatVectorProperty, FloatProperty, IntProperty,
@@ -25,19 +28,37 @@ def structure_items(drawable_only=False):
             if info["has_boxes"] or not drawable_only]
 
 
-def uses(structure, parameter):
-    """Whether `parameter` ("max_depth" or "leaf_size") changes the build of `structure`."""
-    return api.STRUCTURE_INFO[structure][f"uses_{parameter}"]
+def structure_properties(*, drawable_only, structure, max_depth, auto_depth, update=None):
+    """The structure and its build settings (build_settings.py reads them), defined once for both groups so
+    that their limits cannot drift: a mix-in class of the four properties. `drawable_only`: no kind
+    without boxes (the overlay's list); `structure`, `max_depth`, `auto_depth`: the defaults; `update`:
+    what a change calls."""
+    on_change = {} if update is None else {"update": update}
+    return type("StructureProperties", (), {"__annotations__": {
+        "structure": EnumProperty(name="Structure", items=structure_items(drawable_only), default=structure,
+                                  description="The acceleration structure built for every shown mesh",
+                                  **on_change),
+        "max_depth_auto": BoolProperty(
+            name="Auto depth", default=auto_depth, **on_change,
+            description="Octree: choose the depth from the triangle count and the memory budget (a node "
+                        "still stops splitting at the leaf size); off: the depth below"),
+        "max_depth": IntProperty(name="Max depth", min=0, max=api.DEFAULTS["max_depth_limit"], soft_max=12,
+                                 default=max_depth, **on_change,
+                                 description="Octree: the deepest level a node may split to when Auto depth "
+                                             "is off (0 = the root box alone)"),
+        "leaf_size": IntProperty(name="Leaf size", min=1, max=256, default=api.DEFAULTS["leaf_size"], **on_change,
+                                 description="Triangles a node may hold before it splits (octree) / per leaf "
+                                             "(BVH)"),
+    }})
 
 
-def depth_setting(props):
-    """The max_depth a build takes from scene.raylab or scene.raylab_render: "auto" (the core derives the
-    depth from the triangle count and the memory budget) or the slider's depth."""
-    return "auto" if props.max_depth_auto else props.max_depth
+class _Features:
+    """The entry points of the features the properties drive, handed in by their register()."""
+    probe_result = None   # probe.current_result: scene -> the probe's fields
+    spin_changed = None   # spin.update_spin_timer
 
 
-AUTO_DEPTH_DESCRIPTION = ("Octree: choose the depth from the triangle count and the memory budget (a node "
-                          "still stops splitting at the leaf size); off: the depth below")
+features = _Features()
 
 
 VRT_GREEN = (0.2, 1.0, 0.2, 1.0)
@@ -61,16 +82,23 @@ def _depth_max_changed(self, context):
 
 
 def _spin_changed(self, context):
-    from . import spin
-    spin.update_spin_timer()
+    if features.spin_changed is not None:
+        features.spin_changed()
     _redraw(self, context)
 
 
-def _probe_field(name):
+def _probe_field(name, unregistered):
     def get(self):
-        from . import probe
-        return probe.current_result(self.id_data)[name]
+        read = features.probe_result
+        return unregistered if read is None else read(self.id_data)[name]
     return get
+
+
+def _probe_counter(counter):
+    """A read-only count of the probe's ray, named as the core's counter (api.COUNTER_INFO)."""
+    info = api.COUNTER_INFO[counter]
+    return IntProperty(name=info["label"], get=_probe_field(counter, 0),
+                       description=f"The probe's ray: {info['description'][0].lower()}{info['description'][1:]}")
 
 
 def _image_size(scene):
@@ -99,18 +127,11 @@ def _pixel_setter(axis):
     return set
 
 
-class RAYLAB_PG_scene(bpy.types.PropertyGroup):
-    # Structure overlay
-    structure: EnumProperty(name="Structure", items=structure_items(drawable_only=True), default="octree", update=_redraw,
-                            description="The acceleration structure drawn over the meshes and probed by the ray")
-    # The viewport starts shallower than the core's default: a depth-4 octree can be read box by box.
-    max_depth: IntProperty(name="Max depth", min=0, max=api.DEFAULTS["max_depth_limit"], soft_max=10, default=4,
-                           update=_redraw,
-                           description="Octree: the deepest level a node may split to (0 = the root alone)")
-    # Off in the viewport: the levels teach with the depth slider.
-    max_depth_auto: BoolProperty(name="Auto depth", default=False, update=_redraw, description=AUTO_DEPTH_DESCRIPTION)
-    leaf_size: IntProperty(name="Leaf size", min=1, max=64, default=api.DEFAULTS["leaf_size"], update=_redraw,
-                           description="Triangles a node may hold before it splits (octree) / per leaf (BVH)")
+# The viewport starts shallower than F12, a depth-4 octree can be read box by box, and Auto depth is off
+# there: the levels teach with the depth slider.
+class RAYLAB_PG_scene(structure_properties(drawable_only=True, structure="octree", max_depth=4, auto_depth=False,
+                                           update=_redraw), bpy.types.PropertyGroup):
+    # Structure overlay: structure, max_depth_auto, max_depth, leaf_size from structure_properties
     animation_update: EnumProperty(name="On animation", default="REFIT", update=_redraw, items=[
         ("REFIT", "Refit", "Keep the structure's tree and recompute its boxes: fast, but the tree degrades "
                            "(octree and grid rebuild anyway)"),
@@ -180,29 +201,20 @@ class RAYLAB_PG_scene(bpy.types.PropertyGroup):
     fan_size: IntProperty(name="Fan size", min=1, max=64, default=8, update=_redraw,
                           description="N: the fan traces N×N rays")
 
-    probe_status: StringProperty(name="Probe status", get=_probe_field("status"),
+    probe_status: StringProperty(name="Probe status", get=_probe_field("status", ""),
                                  description="missed_root, missed_nodes, missed_triangles, hit_object, "
                                              "or empty when there is no probe ray")
-    probe_triangles_tested: IntProperty(name="Triangles tested", get=_probe_field("triangles_tested"),
-                                        description="Triangles the probe's ray was tested against")
-    probe_boxes_tested: IntProperty(name="Boxes tested", get=_probe_field("boxes_tested"),
-                                    description="Boxes the probe's ray was tested against")
-    probe_nodes_visited: IntProperty(name="Nodes visited", get=_probe_field("nodes_visited"),
-                                     description="Nodes of the structure the probe's ray visited")
+    probe_triangle_tests: _probe_counter("triangle_tests")
+    probe_box_tests: _probe_counter("box_tests")
+    probe_nodes_visited: _probe_counter("nodes_visited")
 
 
-class RAYLAB_PG_render(bpy.types.PropertyGroup):
-    """scene.raylab_render: the raylab render engine and the structure comparison."""
+class RAYLAB_PG_render(structure_properties(drawable_only=False, structure=api.DEFAULTS["structure"], max_depth=6,
+                                            auto_depth=api.DEFAULTS["max_depth"] == "auto"),
+                       bpy.types.PropertyGroup):
+    """scene.raylab_render: the raylab render engine and the structure comparison (structure, max_depth_auto,
+    max_depth, leaf_size from structure_properties)."""
 
-    structure: EnumProperty(name="Structure", items=structure_items(), default=api.DEFAULTS["structure"],
-                            description="Acceleration structure built for every mesh")
-    max_depth_auto: BoolProperty(name="Auto Depth", default=api.DEFAULTS["max_depth"] == "auto",
-                                 description=AUTO_DEPTH_DESCRIPTION)
-    max_depth: IntProperty(name="Octree Depth", default=6, min=0,
-                           max=api.DEFAULTS["max_depth_limit"], soft_max=12,
-                           description="Maximum octree depth when Auto Depth is off (0 = the root box only)")
-    leaf_size: IntProperty(name="Leaf Size", default=api.DEFAULTS["leaf_size"], min=1, max=256,
-                           description="Triangles a node may hold before it is split (octree and BVH)")
     super_sampling: IntProperty(name="Super Sampling", default=1, min=1, max=4,
                                 description="N x N camera rays per pixel")
     max_recursion: IntProperty(name="Max Recursion", default=3, min=0, max=16,

@@ -5,7 +5,7 @@ import threading
 import bpy
 
 from .. import api
-from . import compat, cost_passes, levels, properties, render_stats, text_fit, viewport_panels
+from . import build_settings, compat, cost_passes, levels, render_stats, text_fit, viewport_panels
 from .scene_export import build_scene, export_scene, render_settings
 
 
@@ -23,8 +23,7 @@ def render_exported(exported, props, structure=None, super_sampling=None, progre
 
     Raises ExportError, ValueError (bad geometry or settings) or raylab.BuildError (memory budget)."""
     build = build or props
-    scene, _ = build_scene(exported, structure=structure or build.structure,
-                           max_depth=properties.depth_setting(build), leaf_size=build.leaf_size)
+    scene, _ = build_scene(exported, **build_settings.build_kwargs(build, structure))
     return api.render(scene, exported.camera, exported.lights, exported.materials,
                       render_settings(exported, props, super_sampling, cost_rays), progress=progress)
 

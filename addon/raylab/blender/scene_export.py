@@ -200,10 +200,10 @@ def world_colour(world):
     return tuple(float(c) for c in world.color)
 
 
-def build_scene(exported, structure=api.DEFAULTS["structure"], max_depth=api.DEFAULTS["max_depth"],
-                leaf_size=api.DEFAULTS["leaf_size"]):
-    """A committed raylab.Scene of the export, and {raylab instance id: object name}."""
-    scene = api.Scene(structure=structure, max_depth=max_depth, leaf_size=leaf_size)
+def build_scene(exported, **build):
+    """A committed raylab.Scene of the export, and {raylab instance id: object name}; `build`: raylab.Scene's
+    build settings (build_settings.build_kwargs), the core's defaults for those left out."""
+    scene = api.Scene(**build)
     mesh_ids = [scene.add_mesh(vertices, triangles, normals=normals)
                 for (vertices, triangles), normals in zip(exported.meshes, exported.normals)]
     objects = {}

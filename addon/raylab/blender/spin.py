@@ -5,7 +5,7 @@ import math
 
 import bpy
 
-from . import structure_cache
+from . import properties, structure_cache
 
 SPIN_STEP = math.radians(2.0)  # per frame change or timer tick
 SPIN_INTERVAL = 1.0 / 30.0
@@ -54,11 +54,13 @@ def _on_load(_):
 
 
 def register():
+    properties.features.spin_changed = update_spin_timer
     bpy.app.handlers.frame_change_post.append(_on_frame_change)
     bpy.app.handlers.load_post.append(_on_load)
 
 
 def unregister():
+    properties.features.spin_changed = None
     bpy.app.handlers.frame_change_post.remove(_on_frame_change)
     bpy.app.handlers.load_post.remove(_on_load)
     if bpy.app.timers.is_registered(_spin_tick):

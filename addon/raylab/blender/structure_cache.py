@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import api
 
-from . import properties
+from . import build_settings
 from .mesh_data import mesh_triangles, mesh_vertices
 
 WORLD_ALIGNED = "aabb"  # the one structure kept in world space (see above)
@@ -91,8 +91,7 @@ class SceneModel:
     def __init__(self, settings_key, settings):
         structure = settings_key[0]
         self.settings_key = settings_key
-        self.scene = api.Scene(structure=structure, max_depth=properties.depth_setting(settings),
-                               leaf_size=settings.leaf_size)
+        self.scene = api.Scene(**build_settings.build_kwargs(settings))
         self.world = structure == WORLD_ALIGNED
         self.parts = {}       # object name -> _Part
         self.shown = ([], [])  # the object names and matrix bytes last asked for
@@ -281,18 +280,10 @@ def _mesh_of(obj, depsgraph):
     return mesh
 
 
-def settings_key(settings):
-    """The build settings that matter for the chosen structure (a change to another one costs no rebuild)."""
-    structure = settings.structure
-    return (structure,
-            properties.depth_setting(settings) if properties.uses(structure, "max_depth") else None,
-            settings.leaf_size if properties.uses(structure, "leaf_size") else None)
-
-
 def scene_model(scene, depsgraph=None):
     """The SceneModel of a Blender scene, brought up to date with its shown objects and settings."""
     settings = scene.raylab
-    key = settings_key(settings)
+    key = build_settings.cache_key(settings)
     targets = target_objects(scene)
     model = _models.get(scene.name_full)
     # New settings rebuild every structure anyway; objects long gone would keep their meshes.

@@ -9,7 +9,7 @@ many more.
 import bpy
 
 from .. import api
-from . import cost_overlay, overlay, probe, properties, render_stats, structure_cache, text_fit
+from . import build_settings, cost_overlay, overlay, probe, render_stats, structure_cache, text_fit
 
 TOP_OBJECTS = 5      # objects listed by name in the ranking
 KEY_SWATCH = 16      # pixels of a depth colour's icon
@@ -20,13 +20,13 @@ def draw_structure_settings(layout, props):
     """The structure and its build settings, each active only where it applies (viewport and render)."""
     layout.prop(props, "structure")
     depth = layout.column()
-    depth.active = properties.uses(props.structure, "max_depth")
+    depth.active = build_settings.uses(props.structure, "max_depth")
     depth.prop(props, "max_depth_auto")
     slider = depth.row()
     slider.active = not props.max_depth_auto
     slider.prop(props, "max_depth")
     leaf = layout.row()
-    leaf.active = properties.uses(props.structure, "leaf_size")
+    leaf.active = build_settings.uses(props.structure, "leaf_size")
     leaf.prop(props, "leaf_size")
 
 

@@ -1,0 +1,35 @@
+"""A structure's build settings as the add-on's two property groups hold them (scene.raylab for the
+viewport, scene.raylab_render for F12 and the comparison): which settings a kind uses, the depth rule,
+the cache key, and the keyword arguments of every build (raylab.Scene, raylab.build, build_scene).
+
+No bpy here: `props` is anything with structure, max_depth_auto, max_depth and leaf_size (a property
+group, or a SimpleNamespace in a test). properties.py defines those four for both groups in one place.
+"""
+from .. import api
+
+SETTINGS = ("max_depth", "leaf_size")  # a kind uses one when api.STRUCTURE_INFO[kind]["uses_<setting>"]
+
+
+def uses(structure, setting):
+    """Whether `setting` (one of SETTINGS) changes the build of `structure`."""
+    return api.STRUCTURE_INFO[structure][f"uses_{setting}"]
+
+
+def max_depth(props):
+    """"auto" (the core derives the depth from the triangle count and the memory budget) or the slider's
+    depth: the Auto depth checkbox and the depth slider are one setting of the core."""
+    return "auto" if props.max_depth_auto else props.max_depth
+
+
+def build_kwargs(props, structure=None):
+    """structure, max_depth and leaf_size of a build from `props`; `structure` builds another kind with
+    the group's depth and leaf size (the comparison builds every kind)."""
+    return dict(structure=structure or props.structure, max_depth=max_depth(props), leaf_size=props.leaf_size)
+
+
+def cache_key(props):
+    """The build settings that matter for props.structure: a change to a setting it does not use costs no
+    rebuild."""
+    kwargs = build_kwargs(props)
+    structure = kwargs["structure"]
+    return (structure,) + tuple(kwargs[s] if uses(structure, s) else None for s in SETTINGS)
