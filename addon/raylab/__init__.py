@@ -12,7 +12,7 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "View3D > Sidebar > raylab; Render Engine: raylab",
-    "description": "See and measure ray-tracing acceleration structures (AABB, octree, BVH)",
+    "description": "See and measure ray-tracing acceleration structures (AABB, octree, BVH, uniform grid)",
     "category": "Render",
 }
 

@@ -148,7 +148,7 @@ class Structure:
     def __init__(self, native):
         self.native = native  # the _raylab.Structure; other native parts (the renderer) take it
 
-    structure = property(lambda self: self.native.structure, doc="none, aabb, octree or bvh")
+    structure = property(lambda self: self.native.structure, doc=f"one of STRUCTURES: {', '.join(STRUCTURES)}")
     build_seconds = property(lambda self: self.native.build_seconds)
     memory_bytes = property(lambda self: self.native.memory_bytes, doc="the structure's own bytes, without the mesh")
     triangle_count = property(lambda self: self.native.triangle_count)

@@ -234,7 +234,9 @@ def read_text(path):
 
 
 def plain(text):
-    return re.sub(r"(\*\*|\*|`)", "", text)
+    """Markdown as a Blender label shows it: no emphasis, no code marks, no comments (the kinds lists'
+    markers, tools/kind_lists.py)."""
+    return re.sub(r"(\*\*|\*|`)", "", re.sub(r"<!--.*?-->", "", text))
 
 
 def load_level(folder):
