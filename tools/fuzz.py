@@ -205,7 +205,8 @@ def trace_round(rng, round_, findings, counts):
     counts["builds"] += 4
     origins, directions, kinds = rays(vertices32.astype(np.float64), triangles, rng, 1800)
     origins, directions = origins.astype(np.float32), directions.astype(np.float32)
-    finite = np.isfinite(origins).all(axis=1) & np.isfinite(directions).all(axis=1) & (np.abs(directions).max(axis=1) > 0)
+    finite = (np.isfinite(origins).all(axis=1) & np.isfinite(directions).all(axis=1)
+              & (np.abs(directions).max(axis=1) > 0))
     origins, directions, kinds = origins[finite], directions[finite], kinds[finite]
     tmin = float(rng.choice([0.0, 0.0, 1e-6, 1e-3]))
     reference = structures["none"].intersect(origins, directions, tmin=tmin)

@@ -373,7 +373,8 @@ def build_extension(out_dir, version, wheels):
     run = subprocess.run(base + ["validate", mapped(target)], capture_output=True, text=True)
     # Blender's own lines only, not the sound and file-system warnings of a machine without them.
     noise = re.compile(r"pw\.conf|ALSOFT|mounted file-systems|^Blender \d")
-    report = "\n".join(line for line in (run.stdout + run.stderr).splitlines() if line.strip() and not noise.search(line))
+    report = "\n".join(line for line in (run.stdout + run.stderr).splitlines()
+                       if line.strip() and not noise.search(line))
     if run.returncode != 0:
         raise SystemExit(f"package: blender --command extension validate failed:\n{report}")
     return target, report
@@ -399,7 +400,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", default=os.path.join(ROOT, "out"), help="folder of the packages (default out/)")
     parser.add_argument("--all-pythons", action="store_true",
-                        help=f"also build the modules of Python {', '.join(PYTHON_ROOTS)} with the cached roots' headers")
+                        help=f"also build the modules of Python {', '.join(PYTHON_ROOTS)} with the cached roots' "
+                             "headers")
     args = parser.parse_args()
     out_dir = os.path.abspath(args.out)
     version = addon_version()

@@ -25,7 +25,8 @@ __all__ = [
     "COST_PASSES", "COST_PASS_INFO", "COST_RAYS", "COST_RAYS_INFO",
     "DEFAULTS", "SAH_CONSTANTS", "TOP_LEVEL_REFIT_LIMIT", "RAY_STATUSES", "BuildError", "load_mesh", "build",
     "build_file",
-    "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render", "camera_rays", "image_size", "write_image",
+    "Structure", "Scene", "Hits", "Statuses", "Occlusion", "RayStory", "SceneStory", "InstancePart", "render",
+    "camera_rays", "image_size", "write_image",
     "HEAT_COLOURS", "heat_map", "heat_legend", "heat_ticks", "heat_scale_text",
 ]
 

@@ -14,7 +14,6 @@ import pytest
 from mathutils import Vector
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
-import raylab  # noqa: E402
 from raylab.blender import overlay, probe, structure_cache  # noqa: E402
 
 FRAMES = range(1, 9)

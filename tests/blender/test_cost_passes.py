@@ -225,7 +225,8 @@ def test_the_heat_pass_keeps_its_colours_in_the_files_working_space(demo_scene, 
         if matrix is not None:
             expected[..., :3] = expected[..., :3] @ matrix.T.astype(np.float32)
         assert np.allclose(heat, expected, atol=1e-6)
-        assert (matrix is None) == np.array_equal(heat, raylab.heat_map(api_counts(demo_scene)["triangle_tests"], 500.0))
+        same = np.array_equal(heat, raylab.heat_map(api_counts(demo_scene)["triangle_tests"], 500.0))
+        assert (matrix is None) == same
     finally:
         if colorspace is not None and compat.working_space() != "Linear Rec.709":
             bpy.ops.wm.set_working_color_space(working_space="Linear Rec.709", convert_colors=False)

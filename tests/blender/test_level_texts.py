@@ -15,7 +15,8 @@ from raylab.blender import compare, probe, properties  # noqa: E402
 from raylab.blender.experiments import leak  # noqa: E402
 
 LEVELS_DIR = os.path.join(ROOT, "levels")
-TEXTS = sorted(f"levels/{d}/text.md" for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "text.md")))
+TEXTS = sorted(f"levels/{d}/text.md" for d in os.listdir(LEVELS_DIR)
+               if os.path.exists(os.path.join(LEVELS_DIR, d, "text.md")))
 
 # What a reader calls each colour; a drawn colour is named by the nearest of these.
 NAMED = {"red": (1.0, 0.1, 0.1), "orange": (1.0, 0.55, 0.1), "yellow": (1.0, 0.9, 0.1), "green": (0.2, 1.0, 0.2),

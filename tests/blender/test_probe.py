@@ -95,7 +95,8 @@ def test_probe_tells_the_cores_story(torus_scene, case):
         assert result["hit_point"] is None
     text = probe.status_text(scene)
     assert text[0] == probe.status_message(story, "octree")
-    assert f"triangle tests {result['triangle_tests']} / {result['triangle_total']}, box tests {result['box_tests']}" in text[1]
+    counts = f"triangle tests {result['triangle_tests']} / {result['triangle_total']}, box tests {result['box_tests']}"
+    assert counts in text[1]
 
 
 def test_moving_the_ray_object_changes_the_status(torus_scene):

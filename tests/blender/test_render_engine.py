@@ -166,7 +166,6 @@ def test_comparison_operator_measures_all_four_structures(demo_scene):
     assert table["none"]["memory_bytes"] < min(table["octree"]["memory_bytes"], table["bvh"]["memory_bytes"])
 
 
-
 def test_shade_smooth_renders_a_uv_sphere_without_facets(demo_scene):
     for name in ("Goat Head", "Ground"):
         bpy.data.objects.remove(demo_scene.objects[name])

@@ -102,7 +102,8 @@ def test_intersect_results_have_the_agreed_shapes_and_dtypes(sphere, structure):
         assert a.dtype == dtype and a.shape == (3,), name
     assert h.stats is None
     assert list(h.hit) == [True, False, True]
-    assert h.t[0] == pytest.approx(4.0, rel=1e-3) and h.t[2] == pytest.approx((math.sqrt(27) - 1) / math.sqrt(3), rel=1e-2)
+    assert h.t[0] == pytest.approx(4.0, rel=1e-3)
+    assert h.t[2] == pytest.approx((math.sqrt(27) - 1) / math.sqrt(3), rel=1e-2)
     assert (h.t[1], h.triangle[1], h.instance[1]) == (np.inf, -1, -1)
     assert list(h.instance) == [0, -1, 0]
     o = s.occluded(origins, directions)

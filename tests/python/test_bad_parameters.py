@@ -72,7 +72,8 @@ def test_a_bad_build_setting_names_the_parameter(entry, case):
 THREADS = "threads must be None or an integer >= 0 (None or 0: all cores), got "
 # (target, method, arguments, message) for the query parameters of structures and scenes.
 QUERIES = {
-    "intersect tmin None": (structure, "intersect", (ORIGINS, DIRECTIONS, None), "tmin must be a real number, got None"),
+    "intersect tmin None": (structure, "intersect", (ORIGINS, DIRECTIONS, None),
+                            "tmin must be a real number, got None"),
     "intersect tmax array": (structure, "intersect", (ORIGINS, DIRECTIONS, 0.0, np.ones(500)),
                              "tmax must be a real number, got a value of type numpy.ndarray"),
     "intersect count str": (structure, "intersect", (ORIGINS, DIRECTIONS, 0.0, 1.0, "yes"),

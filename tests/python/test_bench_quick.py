@@ -31,7 +31,8 @@ def test_outputs_exist(bench):
     out, results = bench
     assert set(results) >= {"meshes", "blender", "thesis", "leaks", "self_hits", "charts", "machine"}
     assert (out / "results.md").read_text().startswith("# raylab benchmark")
-    assert {"bench_throughput.png", "bench_embree_ratio.png", "bench_thesis.png", "bench_leaks.png"} <= set(results["charts"])
+    charts = {"bench_throughput.png", "bench_embree_ratio.png", "bench_thesis.png", "bench_leaks.png"}
+    assert charts <= set(results["charts"])
     for chart in results["charts"]:
         data = (out / chart).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000, chart

@@ -165,7 +165,8 @@ def test_coordinates_within_the_limit_are_hit_by_every_structure(scale):
     vertices, triangles = quad(z=1.0, scale=scale)
     rng = np.random.default_rng(7)
     n = 500
-    origins = (np.column_stack([rng.uniform(0, 1, n), rng.uniform(0, 1, n), np.full(n, 3.0)]) * scale).astype(np.float32)
+    origins = np.column_stack([rng.uniform(0, 1, n), rng.uniform(0, 1, n), np.full(n, 3.0)]) * scale
+    origins = origins.astype(np.float32)
     directions = np.column_stack([rng.normal(0, 0.1, n), rng.normal(0, 0.1, n), -np.ones(n)]).astype(np.float32)
     reference = assert_all_equal_brute_force(vertices, triangles, origins, directions, f"scale {scale}")
     assert reference.hit.mean() > 0.5

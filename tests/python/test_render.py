@@ -72,7 +72,8 @@ def make_scene(structure="bvh", world=BASE):
 def make_view(world=BASE, energy=ENERGY):
     camera = dict(type="PERSP", matrix_world=world @ look_at((3.0, -4.0, 3.0), (0.0, 0.0, 0.0)), lens=30.0,
                   resolution_x=W, resolution_y=H, resolution_percentage=100, clip_start=0.001, clip_end=1e5)
-    lights = [dict(type="POINT", color=(1.0, 1.0, 1.0), energy=energy, matrix_world=world @ translation((-2.0, -2.5, 2.5)))]
+    lights = [dict(type="POINT", color=(1.0, 1.0, 1.0), energy=energy,
+                   matrix_world=world @ translation((-2.0, -2.5, 2.5)))]
     materials = [dict(diffuse=(0.8, 0.8, 0.8), specular=0.2, shininess=20.0, ambient=0.1),
                  dict(diffuse=(0.8, 0.3, 0.2), reflectivity=0.3)]
     return camera, lights, materials

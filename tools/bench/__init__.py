@@ -1,6 +1,6 @@
 """./raylab bench: measure raylab's structures against Embree (3 on Debian 12, 4 on Debian 13) and
-Blender's BVHTree, reproduce the VRT thesis's render experiment (its section 6.1), chart speed against accuracy, and play
-an animation with the BVH refitted against rebuilt.
+Blender's BVHTree, reproduce the VRT thesis's render experiment (its section 6.1), chart speed against
+accuracy, and play an animation with the BVH refitted against rebuilt.
 
     /usr/bin/python3 -m tools.bench [--quick] [--out out/bench] [--build-dir build]   (from the checkout)
     /usr/bin/python3 -m tools.bench --only animation [--quick]    (the refit experiment alone, a minute)

@@ -132,8 +132,8 @@ def image_errors(images, reference):
         rmse = float(np.sqrt(np.mean(diff ** 2)))
         psnr = math.inf if rmse == 0 else 20 * math.log10(1.0 / rmse)
         across = max(float(np.abs(img - images[(other, ss)]).max()) for other in structures)
-        out.append(dict(structure=structure, super_sampling=ss, rmse=rmse, psnr_db=psnr if math.isfinite(psnr) else None,
-                        max_difference_to_other_structures=across))
+        out.append(dict(structure=structure, super_sampling=ss, rmse=rmse,
+                        psnr_db=psnr if math.isfinite(psnr) else None, max_difference_to_other_structures=across))
     return out
 
 

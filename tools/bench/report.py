@@ -80,7 +80,8 @@ def summary_lines(results):
             continue
         r = bvh["ratios_to_embree_medium"]
         octree_r = octree.get("ratios_to_embree_medium", {}) if octree and not octree["error"] else {}
-        per_triangle = f"{bvh['memory_bytes'] / mesh['triangles']:.1f} / {embree['memory_bytes'] / mesh['triangles']:.1f}"
+        per_triangle = (f"{bvh['memory_bytes'] / mesh['triangles']:.1f} / "
+                        f"{embree['memory_bytes'] / mesh['triangles']:.1f}")
         for threads in sorted(int(n) for n in bvh["build"]):
             rays = [r.get(f"{s}_{q}_{threads}t_rays_per_second") for s, q in
                     (("camera", "closest"), ("camera", "any"), ("random", "closest"), ("random", "any"))]
@@ -119,7 +120,8 @@ def markdown(results):
                 f"| {fmt_rate(rate('camera', 'any', 2))} | {fmt_rate(rate('random', 'closest', 1))} "
                 f"| {fmt_rate(rate('random', 'closest', 2))} | {fmt_rate(rate('random', 'any', 2))} " + tests)
             if r:
-                lines[-1] += (f"| {r['camera_closest_2t_rays_per_second']:.2f} | {r['random_closest_2t_rays_per_second']:.2f} "
+                lines[-1] += (f"| {r['camera_closest_2t_rays_per_second']:.2f} "
+                              f"| {r['random_closest_2t_rays_per_second']:.2f} "
                               f"| {r['build_2t_seconds']:.2f} |")
             else:
                 lines[-1] += "| | | |"
@@ -152,17 +154,20 @@ def markdown(results):
                          + " | ".join(str(c.get(k, 0)) for k in DISAGREEMENT_KINDS) + " |")
     lines += ["", "Kinds: *same* (both miss, or the same triangle at t within 1e-5 relative); *rounding* (the same "
               "triangle, t differs, but both hit points lie on its plane within 1e-6 of the coordinates' magnitude: a "
-              "slide along the face, which a short t or a grazing ray magnifies); *shared_edge_vertex* (different triangles sharing a vertex at the "
-              "same point, on an edge of both: an exact edge or vertex hit owned by both); *coincident_faces* "
-              "(different triangles without a shared vertex at the same point: overlapping faces); *edge_ray* (the row's tracer hits a triangle on its edge, within 1e-5 barycentric or "
-              "1e-6 of the magnitude of the corners and the ray origin, where Embree misses or hits farther: "
+              "slide along the face, which a short t or a grazing ray magnifies); *shared_edge_vertex* (different "
+              "triangles sharing a vertex at the same point, on an edge of both: an exact edge or vertex hit owned "
+              "by both); *coincident_faces* (different triangles without a shared vertex at the same point: "
+              "overlapping faces); *edge_ray* (the row's tracer hits a triangle on its edge, within 1e-5 "
+              "barycentric or 1e-6 of the magnitude of the corners and the ray origin, where Embree misses or hits "
+              "farther: "
               "Embree's default test is not watertight); *edge_ray_passed* (the reverse: Embree hits an edge the "
               "row's tracer passes); "
               "*grazing* (same triangle, t differs, ray almost parallel to the face); *unexplained*.", ""]
     lines += disagreement_examples(results)
     th = results["thesis"]
     structures = thesis_structures(th)
-    lines += [f"## The VRT thesis experiment (section 6.1), {th['width']}x{th['height']} pixels", "", th["note"] + ".", "",
+    lines += [f"## The VRT thesis experiment (section 6.1), {th['width']}x{th['height']} pixels", "",
+              th["note"] + ".", "",
               "| super-sampling | " + " | ".join(f"raylab {s} s" for s in structures)
               + " | thesis none s | thesis aabb s | thesis octree s |", "|---|" + "---|" * (len(structures) + 3)]
     by = {(r["structure"], r["super_sampling"]): r for r in th["rows"]}
@@ -178,7 +183,8 @@ def markdown(results):
                      + " | " + " | ".join("-" if x is None else f"{x:,}" for x in thesis) + " |")
     if th.get("image_error"):
         lines += ["", f"Image error against the reference, the same scene rendered at super-sampling "
-                  f"{th['reference_super_sampling']}x{th['reference_super_sampling']}:", "", "| structure | super-sampling | render s | RMSE | PSNR dB | max diff to other structures |",
+                  f"{th['reference_super_sampling']}x{th['reference_super_sampling']}:", "",
+                  "| structure | super-sampling | render s | RMSE | PSNR dB | max diff to other structures |",
                   "|---|---|---|---|---|---|"]
         for e in th["image_error"]:
             r = by[(e["structure"], e["super_sampling"])]
@@ -197,7 +203,8 @@ def markdown(results):
               "(share of lit pixels).", "", "| scale | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
     for scale in dict.fromkeys(r["scale"] for r in sh["rows"]):
         cells = [next(r for r in sh["rows"] if r["scale"] == scale and r["method"] == m) for m in methods]
-        lines.append(f"| {scale:g} | " + " | ".join(f"{c['false_self_hits']} ({100 * c['fraction']:.1f}%)" for c in cells) + " |")
+        lines.append(f"| {scale:g} | " + " | ".join(f"{c['false_self_hits']} ({100 * c['fraction']:.1f}%)"
+                                                   for c in cells) + " |")
     if results.get("animation"):
         lines += [""] + animation_markdown(results["animation"])
     lines += ["", "Charts: " + ", ".join(f"`{c}`" for c in results["charts"]), ""]

@@ -39,8 +39,8 @@ def run_native(config, binary, data_dir):
     results = {}
     for name, source in config["meshes"]:
         log(f"raylab_bench {name}")
-        subprocess.run([str(binary), "--mesh", mesh_spec(source), "--name", name, "--out", str(data_dir), *config["native"]],
-                       check=True)
+        subprocess.run([str(binary), "--mesh", mesh_spec(source), "--name", name, "--out", str(data_dir),
+                        *config["native"]], check=True)
         results[name] = json.loads((data_dir / f"{name}.json").read_text())
         add_ratios(results[name])
     return results

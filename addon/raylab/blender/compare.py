@@ -145,8 +145,9 @@ class CompareJob:
     def store(self, scene, super_sampling):
         """Writes the finished comparison on the scene (main thread only): a skipped structure's row is
         its estimate."""
-        scene[COMPARISON] = {r.structure: render_stats.record(r.estimated if r.stats is None else r.stats, super_sampling)
-                             for r in self.results if r.stats is not None or r.estimated is not None}
+        scene[COMPARISON] = {
+            r.structure: render_stats.record(r.estimated if r.stats is None else r.stats, super_sampling)
+            for r in self.results if r.stats is not None or r.estimated is not None}
         scene[SKIPPED] = {r.structure: r.note for r in self.results if r.stats is None}
 
 

@@ -100,7 +100,8 @@ def box_weights(size_in, size_out):
 
 def tiles(picture, side):
     """The picture's square tiles, top first, each resampled to side x side (smaller or larger, by area):
-    (side, side, 4) float32, bottom row first. A picture is as many squares tall as it is wide; a leftover strip is dropped."""
+    (side, side, 4) float32, bottom row first. A picture is as many squares tall as it is wide; a leftover
+    strip is dropped."""
     height, width = picture.shape[:2]
     count = max(1, height // width)
     result = []

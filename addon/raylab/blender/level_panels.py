@@ -8,8 +8,6 @@ from . import diagrams, levels, text_fit
 TASK_SECTIONS = []  # draw(layout, context) hooks drawn under the tasks, before the controls
 
 
-
-
 def current_level(context):
     st = levels.state(context.scene)
     if st is None:

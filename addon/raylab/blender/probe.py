@@ -194,7 +194,8 @@ def probe_result(scene, depsgraph=None):
             fan_drawing, fan_counts = _trace_fan(model.scene, fan, settings.probe_length, settings.fan_size)
             text.append("fan: " + ", ".join(f"{fan_counts[s]} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
         length = story.hit["t"] if story.hit is not None else settings.probe_length
-        result = ProbeResult(key, public, text + errors, _drawing(story, origins[0], directions[0], length), fan_drawing)
+        drawing = _drawing(story, origins[0], directions[0], length)
+        result = ProbeResult(key, public, text + errors, drawing, fan_drawing)
     _results[scene.name_full] = result
     return result
 
@@ -242,8 +243,9 @@ _results = {}  # scene name -> ProbeResult
 
 def evaluate_probe(context_or_scene):
     """Evaluates the scene's probe ray (traced again if anything changed since); returns dict(status,
-    triangle_tests, triangle_total, box_tests, nodes_visited, hit_point). status is one of STATUSES, or "" when there is no ray
-    (no ray object / camera) or no mesh; hit_point is the world (x, y, z) of the nearest hit or None."""
+    triangle_tests, triangle_total, box_tests, nodes_visited, hit_point). status is one of STATUSES, or ""
+    when there is no ray (no ray object / camera) or no mesh; hit_point is the world (x, y, z) of the
+    nearest hit or None."""
     scene = _scene_of(context_or_scene)
     return dict(probe_result(scene).public)
 
@@ -337,7 +339,7 @@ def _draw_text():
     blf.disable(font, blf.SHADOW)
 
 
-# --- the ray object and its operator --------------------------------------------------------------------------------------
+# --- the ray object and its operator ----------------------------------------------------------------------
 
 PROBE_OBJECT_NAME = "raylab ray"
 

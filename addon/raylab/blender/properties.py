@@ -181,9 +181,9 @@ class RAYLAB_PG_scene(structure_properties(drawable_only=True, structure="octree
                                 description="Trace one ray through the structure and show its story")
     probe_source: EnumProperty(name="Source", default="OBJECT", update=_redraw,
                                description="Where the probe's ray comes from", items=[
-        ("OBJECT", "Object", "From the ray object's origin along its local +Z axis, where its arrow points"),
-        ("CAMERA", "Camera", "From the scene camera through the chosen pixel"),
-    ])
+                                   ("OBJECT", "Object",
+                                    "From the ray object's origin along its local +Z axis, where its arrow points"),
+                                   ("CAMERA", "Camera", "From the scene camera through the chosen pixel")])
     probe_object: PointerProperty(name="Ray object", type=bpy.types.Object, update=_redraw,
                                   description="The ray starts at this object's origin and goes along its "
                                               "local +Z axis, where an Empty 'Single Arrow' points")

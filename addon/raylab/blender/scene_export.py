@@ -7,7 +7,6 @@ at the same evaluated mesh, so that mesh is exported, and its structure built, o
 import math
 from dataclasses import dataclass, field
 
-import bpy
 import numpy as np
 
 from .. import api

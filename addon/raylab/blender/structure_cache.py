@@ -8,9 +8,10 @@ structure alone is rebuilt), other build settings start a new scene. A deforming
 modifier, shape keys: the same triangles, moved vertices) has its structure refitted instead when
 scene.raylab.animation_update is 'REFIT' (raylab.Scene.refit_mesh). The mesh is re-read and re-hashed
 only after the depsgraph reported a geometry change, or on a frame change for objects whose geometry may
-be animated (frame_change_post: playback reports no depsgraph update). One exception to the object-space model: 'aabb' is VRT's box, axis-aligned
-in the WORLD, so its mesh is the object's world-space vertices under an identity instance and is
-replaced when the object moves; the drawn box is then the world AABB and the probe tests that box.
+be animated (frame_change_post: playback reports no depsgraph update). One exception to the object-space
+model: 'aabb' is VRT's box, axis-aligned in the WORLD, so its mesh is the object's world-space vertices
+under an identity instance and is replaced when the object moves; the drawn box is then the world AABB and
+the probe tests that box.
 """
 import hashlib
 import itertools

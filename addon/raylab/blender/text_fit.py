@@ -10,8 +10,9 @@ import blf
 
 UNIT = 20.0             # UI_UNIT_X at UI scale 1
 PANEL_MARGIN = 1.3      # units: the region's edges and the panel's inner margins, together
-TABS = 1.0              # units: a sidebar's category tabs (UI_PANEL_CATEGORY_MARGIN_WIDTH); taken in every
-                        # region: where there are none, text wraps a little early, never elided
+# TABS: a sidebar's category tabs (UI_PANEL_CATEGORY_MARGIN_WIDTH); taken in every region: where there are
+# none, text wraps a little early, never elided.
+TABS = 1.0              # units
 BOX_MARGIN = 0.4        # units a box (and each nested box) takes from the width
 ICON = 1.2              # units an icon (or its BLANK1 stand-in) takes
 TEXT_PADDING = 0.5      # units of padding Blender keeps around a label's text
@@ -101,7 +102,6 @@ def label(layout, context, text, icon='NONE', boxes=0, columns=1, scale_y=0.8, w
     for i, line in enumerate(fitted):
         column.label(text=line, icon=(icon if i == 0 else 'BLANK1') if has_icon else 'NONE')
         if RECORD is not None:
-            RECORD.append((line, measure(line, font_pixels(context)), available(context, has_icon, boxes, columns,
-                                                                                  width)))
+            RECORD.append((line, measure(line, font_pixels(context)),
+                           available(context, has_icon, boxes, columns, width)))
     return column
-

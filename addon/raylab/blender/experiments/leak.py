@@ -100,7 +100,7 @@ def draw_results(layout, context):
 
 
 class RAYLAB_OT_level_leak_test(bpy.types.Operator):
-    """Shoot rays from the mesh's centre through its vertices and edges with each triangle test and count those that slip out"""
+    """Shoot rays from the mesh's centre through its vertices and edges with each triangle test; count leaks"""
     bl_idname = "raylab.level_leak_test"
     bl_label = "Count Leaking Rays"
     bl_options = {'REGISTER', 'UNDO'}

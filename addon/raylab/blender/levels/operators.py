@@ -85,7 +85,7 @@ class RAYLAB_MT_level_swap_mesh(bpy.types.Menu):
 
 
 class RAYLAB_OT_level_swap_mesh(bpy.types.Operator):
-    """Swap the level's mesh for a shipped mesh or one of your objects (a mesh, curve, surface or text); settings stay"""
+    """Swap the level's mesh for a shipped mesh or one of your objects (mesh, curve, surface, text); settings stay"""
     bl_idname = "raylab.level_swap_mesh"
     bl_label = "Swap Mesh"
     bl_options = {'REGISTER', 'UNDO'}
