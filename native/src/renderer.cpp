@@ -314,7 +314,7 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
 
   const float t = m.transmission;
   glm::vec3 color = specular + (1.0f - t) * (1.0f - kr) * local;
-  if (depth >= settings_.max_depth) return bounded(color);
+  if (depth >= settings_.max_recursion) return bounded(color);
 
   // Fresnel splits the transmitted share into reflection and refraction; under total internal
   // reflection all of it reflects.
@@ -372,7 +372,8 @@ bool refract_direction(const glm::vec3& incident, const glm::vec3& n, float eta,
 
 void RenderSettings::validate() const {
   require(super_sampling >= 1 && super_sampling <= 4, "super_sampling must be 1 to 4, got " + std::to_string(super_sampling));
-  require(max_depth >= 0 && max_depth <= 64, "max_depth must be 0 to 64, got " + std::to_string(max_depth));
+  require(max_recursion >= 0 && max_recursion <= 64,
+          "max_recursion must be 0 to 64, got " + std::to_string(max_recursion));
   require(finite(background) && glm::all(glm::lessThanEqual(glm::abs(background), glm::vec3(kRadianceLimit))),
           "background must be finite, each component within +-" + number(kRadianceLimit));
   require(finite(ambient), "ambient must be finite");

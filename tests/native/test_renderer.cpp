@@ -262,7 +262,7 @@ TEST(Renderer, MirrorFloorReflectsTheBackground) {
   // A perfect mirror seen head-on shows what is above it: the background (nothing else is there).
   EXPECT_NEAR(glm::distance(pixel(r, 16, 16), f.settings.background), 0.0f, 1e-6f);
   EXPECT_EQ(r.stats.rays_reflection, 16u * 16u);
-  f.settings.max_depth = 0;  // no bounce allowed: the mirror is black
+  f.settings.max_recursion = 0;  // no bounce allowed: the mirror is black
   EXPECT_EQ(pixel(f.run(), 16, 16), glm::vec3(0.0f));
 }
 

@@ -21,7 +21,7 @@ namespace raylab {
 
 struct RenderSettings {
   int super_sampling = 1;  // NxN stratified samples per pixel, 1..4
-  int max_depth = 3;       // reflection/refraction bounces after the primary hit
+  int max_recursion = 3;   // reflection/refraction bounces after the primary hit
   bool shadows = true;
   glm::vec3 background{0.05f};
   glm::vec3 ambient{1.0f};  // scaled by each material's `ambient` and diffuse colour
