@@ -28,8 +28,9 @@ MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles);
 // (V,3) real vertices as points (converted to float32; their values are checked by whoever uses them).
 std::vector<glm::vec3> vertices_from_array(py::handle vertices);
 
-// The keywords every build takes, as any Python objects -> validated settings (a wrong type,
-// unknown name or bad value raises a ValueError naming the keyword).
+// The keywords every build takes, as any Python objects -> settings (a wrong type or unknown name
+// raises a ValueError naming the keyword; the values' ranges are BuildSettings::validate()'s, called
+// where the settings enter the core).
 // The build settings as keyword arguments with BuildSettings' own defaults, for every binding that
 // takes them (build, build_file, Scene, Scene.set_settings): `def(f, leading args..., settings...)`.
 // max_depth as Python sees it: "auto" or a whole number.

@@ -8,6 +8,7 @@
 #include <array>
 #include <atomic>
 #include <bit>
+#include <cassert>
 #include <cstdlib>
 #include <limits>
 #include <memory>
@@ -155,8 +156,8 @@ Octree::Octree(MeshPtr mesh, const BuildSettings& settings, int leaf_lanes) : St
   if (leaf_lanes == 8 && !cpu_has_avx2()) throw std::invalid_argument("octree: 8 leaf lanes need a CPU with AVX2");
   if (leaf_lanes != 0 && leaf_lanes != 4 && leaf_lanes != 8) throw std::invalid_argument("octree: leaf_lanes must be 0, 4 or 8");
   leaf_lanes_ = leaf_lanes != 0 ? leaf_lanes : cpu_has_avx2() ? 8 : 4;
-  if (settings.max_depth > kMaxDepth)  // the traversal stack is sized for kMaxDepth
-    throw std::invalid_argument("octree max_depth must be <= " + std::to_string(kMaxDepth));
+  // The traversal stack is sized for kMaxDepth, BuildSettings::validate()'s limit (build_structure checked it).
+  assert(settings.max_depth <= kMaxDepth);
   automatic_depth_ = settings.max_depth == BuildSettings::kAutoDepth;
   max_depth_ = automatic_depth_ ? auto_max_depth(mesh_->triangle_count(), settings.leaf_size) : settings.max_depth;
   if (mesh_->triangle_count() == 0) return;

@@ -63,9 +63,13 @@ const StructureInfo& structure_info(const std::string& name) {
   throw std::invalid_argument("unknown structure '" + name + "': expected one of " + names);
 }
 
+void BuildSettings::refuse_negative_depth(int depth) {
+  throw std::invalid_argument("max_depth must be >= 0 or '" + std::string(kAutoDepthName) + "', got " +
+                              std::to_string(depth));
+}
+
 void BuildSettings::validate() const {
-  if (max_depth < 0 && max_depth != kAutoDepth)
-    throw std::invalid_argument("max_depth must be >= 0 or auto, got " + std::to_string(max_depth));
+  if (max_depth < 0 && max_depth != kAutoDepth) refuse_negative_depth(max_depth);
   if (max_depth > kMaxDepthLimit)
     throw std::invalid_argument("max_depth must be <= " + std::to_string(kMaxDepthLimit) + ", got " +
                                 std::to_string(max_depth));

@@ -33,7 +33,13 @@ struct BuildSettings {
   TriangleTest triangle_test = TriangleTest::Watertight;
   size_t memory_budget = kDefaultMemoryBudget;  // a build that would need more stops with BuildError
 
-  void validate() const;  // throws std::invalid_argument naming the bad setting
+  // The one place that decides whether settings are acceptable (the depth limit, leaf size, memory
+  // budget): build_structure and the Scene call it where settings enter the core, the bindings only
+  // convert types. Throws std::invalid_argument naming the bad setting.
+  void validate() const;
+  // validate()'s refusal of a negative max_depth. The bindings give it for -1 as well: from Python only
+  // the name kAutoDepthName means auto.
+  [[noreturn]] static void refuse_negative_depth(int depth);
 };
 
 class Structure;
