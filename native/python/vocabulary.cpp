@@ -6,11 +6,11 @@
 #include "core_arrays.h"
 
 #include "raylab/cost_passes.h"
-#include "raylab/bvh_simd.h"
 #include "raylab/scene.h"
 #include "raylab/structure.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
+#include "raylab/triangle_packets.h"
 
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>

@@ -7,7 +7,6 @@
 #include <tbb/task_group.h>
 
 #include <immintrin.h>
-#include <sys/mman.h>
 
 #include <algorithm>
 #include <bit>
@@ -565,21 +564,6 @@ class Builder {
 };
 
 }  // namespace
-
-void* allocate_huge(size_t bytes) {
-  constexpr size_t kHugePage = size_t(2) << 20;
-  if (bytes < kHugePage) {
-    void* p = std::malloc(std::max<size_t>(bytes, 1));
-    if (!p) throw std::bad_alloc();
-    return p;
-  }
-  const size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
-  void* p = std::aligned_alloc(kHugePage, rounded);
-  if (!p) throw std::bad_alloc();
-  madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure just means small pages
-  return p;
-}
-
 
 size_t binary_bvh_build_bytes(size_t n) {
   // References, the local trees (at most 2n nodes), the compacted nodes (at most 2n) and the

@@ -1,5 +1,5 @@
 // intersect_watertight4 and intersect_watertight8 against intersect_watertight, lane by lane and bit for bit.
-#include "raylab/bvh_simd.h"
+#include "raylab/triangle_packets.h"
 
 #include <gtest/gtest.h>
 

@@ -10,9 +10,9 @@
 #pragma once
 
 #include "raylab/box_intersection.h"
-#include "raylab/bvh_build.h"
-#include "raylab/bvh_simd.h"
+#include "raylab/huge_array.h"
 #include "raylab/structure.h"
+#include "raylab/triangle_packets.h"
 #include "raylab/triangle_loop.h"
 
 #include <immintrin.h>
@@ -239,7 +239,7 @@ class Octree final : public StructureBase<Octree> {
 
   // The watertight test's leaf loop: the leaf's triangles this ray has not tested yet (mailbox.h),
   // in leaf order, up to kLeafLanes at a time in two packets, their corners gathered from corners_
-  // for the SIMD test of the BVH (bvh_simd.h; bit for bit the scalar test's results).
+  // for the SIMD test of the BVH (triangle_packets.h; bit for bit the scalar test's results).
   // `test(packets, lanes)` gets `lanes` real triangles (a packet's other lanes repeat its first) and
   // returns true to stop the walk. Measured against the scalar loop through the mesh's index array
   // (octree / BVH, closest hit, one core, CPU time, raylab_bench --cpu-time, two interleaved runs
@@ -282,7 +282,7 @@ class Octree final : public StructureBase<Octree> {
   // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE). Measured
   // (octree / BVH camera rays, closest hit, one core, CPU time, two interleaved runs each; dragon,
   // goathead, koala): 8 lanes 0.38-0.39, 0.40-0.41, 0.31-0.36; 4 lanes 0.35-0.39, 0.36-0.40, 0.30-0.32.
-  // kAny: only the first lane hit (first_hit_lane, bvh_simd.h).
+  // kAny: only the first lane hit (first_hit_lane, triangle_packets.h).
   template <bool kAny>
   [[gnu::always_inline]] int test_packets(const TriangleTester& tester, const Watertight4Ray& ray4,
                                           const TrianglePacket* packets, int lanes, float tmax, float* t, float* u,
