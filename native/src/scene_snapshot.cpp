@@ -6,12 +6,19 @@
 #include "raylab/refit.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace raylab {
 
 namespace {
+
+// The far limit for the top level's box tests, whose boxes are not padded: about 1e-5 relative slack
+// for the box and triangle tests rounding the same point differently. The structures themselves need
+// none: their boxes are padded (box_intersection.h), and they open every box entered at or before the
+// best hit (inclusive, for the index tie-break).
+float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-16f; }
 
 Ray to_object(const SceneInstance& inst, const Ray& ray, float tmax) {
   Ray r;

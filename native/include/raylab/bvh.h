@@ -10,18 +10,13 @@
 #include "raylab/bvh_simd.h"
 #include "raylab/structure.h"
 #include "raylab/triangle_loop.h"
+#include "raylab/triangle_packets.h"
 
 #include <algorithm>
 #include <bit>
 #include <type_traits>
 
 namespace raylab {
-
-// The far limit for the scene's top-level box tests (src/scene.cpp), whose boxes are not padded:
-// about 1e-5 relative slack for the box and triangle tests rounding the same point differently. The
-// structures themselves need none: their boxes are padded (box_intersection.h), and they open every
-// box entered at or before the best hit (inclusive, for the index tie-break).
-inline float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-16f; }
 
 class Bvh final : public StructureBase<Bvh> {
  public:

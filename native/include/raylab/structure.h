@@ -46,7 +46,7 @@ class Structure;
 
 // One row per structure kind: everything the bindings, the add-on and the benchmark need to know about
 // it, read from here (the Python module exports the table as _raylab.STRUCTURES). Adding a structure
-// is its own header and source, an enum value above, and a row in kStructures (structure.cpp).
+// is its own header and source, an enum value above, and a row in kStructures (structure_table.cpp).
 struct StructureInfo {
   StructureKind kind;
   const char* name;         // the API's name, e.g. "bvh"
