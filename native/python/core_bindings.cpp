@@ -4,13 +4,13 @@
 #include "core_arrays.h"
 
 #include "raylab/box_lines.h"
-#include "raylab/bvh.h"
 #include "raylab/mesh_io.h"
 #include "raylab/refit.h"
 #include "raylab/structure.h"
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 
 namespace raylab::python {
 
@@ -169,8 +169,8 @@ void bind_core(py::module_& m) {
       .def_property_readonly("refitted", &Structure::refitted)
       .def("sah_cost",
            [](const Structure& s) -> py::object {
-             const auto* bvh = dynamic_cast<const Bvh*>(&s);
-             return bvh ? py::object(py::float_(bvh->sah_cost())) : py::object(py::none());
+             const std::optional<double> cost = structure_sah_cost(s);
+             return cost ? py::object(py::float_(*cost)) : py::object(py::none());
            })
       .def("boxes", &boxes, py::arg("lines") = false, py::arg("depth_min") = 0, py::arg("depth_max") = py::none(),
            py::arg("leaves_only") = false, py::arg("palette") = py::none(), py::arg("fade") = false,

@@ -1,4 +1,4 @@
-#include "raylab/bvh.h"
+#include "bvh.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

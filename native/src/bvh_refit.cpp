@@ -1,5 +1,5 @@
 // The BVH's refit and its SAH cost (refit.h says what a refit is and when it pays).
-#include "raylab/bvh.h"
+#include "bvh.h"
 #include "raylab/refit.h"
 
 #include <tbb/blocked_range.h>
@@ -111,6 +111,11 @@ Bvh::Bvh(const Bvh& source, MeshPtr moved)
 
 double Bvh::sah_cost() const {
   return width_ == 8 ? wide_sah_cost(nodes8_, root_bounds_) : wide_sah_cost(nodes4_, root_bounds_);
+}
+
+std::optional<double> structure_sah_cost(const Structure& s) {
+  const auto* bvh = dynamic_cast<const Bvh*>(&s);
+  return bvh ? std::optional<double>(bvh->sah_cost()) : std::nullopt;
 }
 
 std::unique_ptr<Structure> refit_bvh(const Structure& source, MeshPtr moved) {

@@ -1,6 +1,6 @@
-#include "raylab/octree.h"
+#include "octree.h"
 
-#include "raylab/triangle_box_overlap.h"
+#include "triangle_box_overlap.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

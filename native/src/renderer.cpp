@@ -1,7 +1,7 @@
 #include "raylab/renderer.h"
 
-#include "raylab/ray_offset.h"
-#include "raylab/threads.h"
+#include "ray_offset.h"
+#include "threads.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>

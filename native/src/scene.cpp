@@ -1,6 +1,6 @@
 #include "raylab/scene.h"
 
-#include "raylab/batch.h"
+#include "batch.h"
 #include "raylab/refit.h"
 
 #include <glm/gtc/matrix_access.hpp>

@@ -1,8 +1,8 @@
 #include "raylab/scene_snapshot.h"
 
-#include "raylab/batch.h"
-#include "raylab/box_intersection.h"
-#include "raylab/bvh.h"
+#include "batch.h"
+#include "box_intersection.h"
+#include "bvh.h"
 #include "raylab/refit.h"
 
 #include <algorithm>

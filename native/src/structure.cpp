@@ -1,6 +1,6 @@
 #include "raylab/structure.h"
 
-#include "raylab/batch.h"
+#include "batch.h"
 
 #include <chrono>
 

@@ -1,11 +1,11 @@
 // kStructures: the one table of structure kinds (StructureInfo, structure.h), and its look-ups.
 #include "raylab/structure.h"
 
-#include "raylab/aabb_structure.h"
-#include "raylab/brute_force.h"
-#include "raylab/bvh.h"
-#include "raylab/grid.h"
-#include "raylab/octree.h"
+#include "aabb_structure.h"
+#include "brute_force.h"
+#include "bvh.h"
+#include "grid.h"
+#include "octree.h"
 
 #include <stdexcept>
 #include <string>

@@ -1,4 +1,4 @@
-#include "raylab/bvh.h"
+#include "bvh.h"
 #include "raylab/mesh_io.h"
 
 #include <gtest/gtest.h>

@@ -3,7 +3,7 @@
 // their triangles; its topology is its source's; bad vertices change nothing.
 #include "support.h"
 
-#include "raylab/bvh.h"
+#include "bvh.h"
 #include "raylab/refit.h"
 
 #include <gtest/gtest.h>

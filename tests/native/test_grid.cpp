@@ -1,7 +1,7 @@
-#include "raylab/grid.h"
+#include "grid.h"
 #include "raylab/mesh_io.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_box_overlap.h"
+#include "triangle_box_overlap.h"
 
 #include "support.h"
 

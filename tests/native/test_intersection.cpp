@@ -1,4 +1,4 @@
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 #include "raylab/triangle_intersection.h"
 
 #include <gtest/gtest.h>

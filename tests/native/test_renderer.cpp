@@ -1,5 +1,5 @@
 #include "raylab/camera.h"
-#include "raylab/ray_offset.h"
+#include "ray_offset.h"
 #include "raylab/renderer.h"
 #include "raylab/scene.h"
 #include "raylab/triangle_intersection.h"

@@ -1,7 +1,7 @@
 // The inner loop every structure shares: test a run of triangles against one ray.
 #pragma once
 
-#include "raylab/mailbox.h"
+#include "mailbox.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
 

@@ -9,11 +9,11 @@
 // (Octree::for_packets). Built in src/octree.cpp.
 #pragma once
 
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 #include "raylab/huge_array.h"
 #include "raylab/structure.h"
 #include "raylab/triangle_packets.h"
-#include "raylab/triangle_loop.h"
+#include "triangle_loop.h"
 
 #include <immintrin.h>
 

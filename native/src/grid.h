@@ -9,9 +9,9 @@
 // as the cube (dragon: 1.3, 2.1, 4.9, 10.2 MB for 1.5 to 4). pbrt's 3 is kept; 1.5 to 2 are cheaper.
 #pragma once
 
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_loop.h"
+#include "triangle_loop.h"
 
 #include <algorithm>
 #include <cmath>

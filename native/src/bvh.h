@@ -5,11 +5,11 @@
 // node is skipped once the closest hit lies before it.
 #pragma once
 
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 #include "raylab/bvh_build.h"
-#include "raylab/bvh_simd.h"
+#include "bvh_simd.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_loop.h"
+#include "triangle_loop.h"
 #include "raylab/triangle_packets.h"
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 // Many rays at once: the one parallel loop behind every batch query (structures and scenes).
 #pragma once
 
-#include "raylab/threads.h"
+#include "threads.h"
 #include "raylab/traversal_record.h"
 
 #include <tbb/blocked_range.h>

@@ -4,7 +4,7 @@
 // triangle packets are triangle_packets.h.
 #pragma once
 
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 
 #include <immintrin.h>
 
