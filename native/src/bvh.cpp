@@ -47,8 +47,6 @@ struct Leaf {
 // Collapses a binary BVH into a W-wide one: each wide node takes the binary node's children and
 // keeps opening its largest inner child (by surface area, the likeliest to be entered) until it has
 // W. Leaves only get their packet range here; fill_packets writes them afterwards, in parallel.
-// Reserving leaves_ for the binary tree's (k + 1) / 2 leaves (no growth copies) measured 0.99-1.02x
-// the build time (icosphere:8, dragon 1.6M, one thread, minimum of 3 x 9 builds): not kept.
 template <int W>
 class Collapser {
  public:
@@ -144,10 +142,8 @@ int chosen_width(int width) {
 }
 
 // Collapses `binary` into `nodes` and writes the leaves' packets; returns each leaf's first packet.
-// The collapse itself runs in one thread: 22-28 ms of about 750 on the 1.6M dragon (one thread).
-// Collapsing the subtrees of under 16,384 triangles in parallel parts, placed after a serial top,
-// took 0.93-1.26 of this one's time relative to Embree's on two threads (dragon at 1.6M,
-// icosphere:8, dragon, bunny_hr; medians of 9, two rounds): within the noise, so not kept.
+// The collapse itself runs in one thread (a few percent of a build; parallel parts were no faster:
+// docs/bench/history.md).
 template <int W>
 std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary,
                                     std::vector<BvhWideNode<W>>& nodes, HugeArray<TrianglePacket>& packets,

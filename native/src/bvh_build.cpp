@@ -68,10 +68,8 @@ struct PrimRef {
 // Asks for the reference `ahead` places after r (before it if negative) in the cache: the scans over
 // nodes larger than the caches wait on memory otherwise (this machine's hardware prefetch does not
 // keep up). A prefetch never faults, so the address may lie outside the array; it is computed as an
-// integer, so that it need not be a valid pointer. Build time, one thread, minimum of 3 x 9 builds:
-// prefetching in the binning 0.91x (icosphere:8) and 0.92x (dragon 1.6M), 1.00x on dragon and
-// bunny_hr (their references fit the cache); in the partition's scans too, another 0.98-1.00x.
-// 16 ahead: 8 and 32 measured within 1% of it.
+// integer, so that it need not be a valid pointer. It pays on meshes whose references pass the cache;
+// 16 ahead (8 and 32 within 1 %).
 inline void prefetch_ref(const PrimRef* r, ptrdiff_t ahead) {
   _mm_prefetch(reinterpret_cast<const char*>(reinterpret_cast<uintptr_t>(r) + ahead * ptrdiff_t(sizeof(PrimRef))),
                _MM_HINT_T0);
@@ -152,8 +150,7 @@ struct Binning {
     return _mm_min_epi32(_mm_max_epi32(raw_bins(r), _mm_setzero_si128()), _mm_set1_epi32(kBins - 1));
   }
   // Per lane, all ones where bins_of(r) < split, for splits in [1, kBins - 1]: without the clamp,
-  // which cannot change the comparison there (the partition's test: CPU time of 5 builds 0.96-0.98x
-  // with the clamp, icosphere:8 and dragon 1.6M, medians of 5).
+  // which cannot change the comparison there (the partition's test; the clamp cost measurably).
   __m128i below(const PrimRef& r, __m128i split) const {
     return _mm_cmplt_epi32(raw_bins(r), split);
   }
@@ -307,9 +304,6 @@ class Builder {
     if (!can_bin || depth >= kMaxSahDepth) return n <= max_leaf_size_ ? begin : median(begin, end, left_info, right_info);
     if (n <= kObjectSweepMax) return sweep_objects(info, begin, end, left_info, right_info);
 
-    // Binning even and odd primitives into two sets of bins, merged after (neighbours often share a
-    // bin, and each update waits for the last one's store), measured 1.00-1.03x the build time (dragon
-    // 1.6M, one core, medians of 5 interleaved runs of 5 builds, nodes from 64 or 256 primitives): not kept.
     const Bins bins = reduce_range(begin, end, Bins(), [&](uint32_t b, uint32_t e) {
       Bins r;
       alignas(16) int32_t index[4];
@@ -386,12 +380,8 @@ class Builder {
   // bins counted) before the others and returns where the others start, gathering each side's
   // centroid bounds on the way. The order is a Hoare partition's: the k-th primitive bound right
   // from the left part swaps with the k-th bound left from the right part (counting from the ends
-  // inwards). Here the scans find them a block at a time without a branch per primitive. Build time
-  // over Embree medium's, one thread, 2 runs of 9 interleaved builds (a busy machine), Hoare's loop
-  // -> this: goathead 0.72-0.76 -> 0.61-0.67, bunny_hr 0.73-0.80 -> 0.68-0.78, dragon 0.78-0.80 ->
-  // 0.60-0.64, icosphere:8 0.86-0.90 -> 0.84-0.86, dragon 1.6M 0.75-0.86 -> 0.73-0.74; CPU time of
-  // 5 builds 0.92x (icosphere:8) and 0.89x (dragon 1.6M). Hoare's loop with its bounds in locals
-  // alone measured 0.98-0.99x.
+  // inwards). Here the scans find them a block at a time without a branch per primitive, a faster build
+  // on every mesh measured (docs/bench/history.md).
   uint32_t partition(const Binning& binning, int axis, int split_bin, uint32_t begin, uint32_t end, uint32_t left_count,
                      Box& left_centroids, Box& right_centroids) {
     constexpr uint32_t kBlock = 64;
@@ -453,10 +443,8 @@ class Builder {
 
   // order[a] lists refs_[begin, begin + n) (n <= kObjectSweepMax) by centroid along axis a, equal
   // keys by position (a stable sort's order). Each primitive's place is its rank, counted for the
-  // three axes at once without a branch. The insertion sort it replaces (the same order) was a fifth
-  // of the build, in mispredicted compares: build time over Embree medium's, one thread, 2 runs of 9
-  // interleaved builds, before -> after: goathead 0.96-0.98 -> 0.75-0.77, bunny_hr 0.95-0.97 ->
-  // 0.74-0.78, dragon 0.96 -> 0.77-0.80, icosphere:8 1.01-1.08 -> 0.90-0.92, dragon 1.6M 1.00-1.04 -> 0.84-0.88.
+  // three axes at once without a branch. The insertion sort it replaces (the same order) was a fifth of
+  // the build, in mispredicted compares.
   void sort_centroids(uint32_t begin, uint32_t n, uint8_t (&order)[3][kObjectSweepMax]) const {
     // Keys as integers ordered as the floats are (+0 for -0, so that the two stay equal): a total
     // order, so that even NaN keys give a permutation.

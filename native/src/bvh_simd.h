@@ -16,16 +16,8 @@ namespace raylab {
 // has count > 0 and its triangles in packets[child .. child + ceil(count / 4)); an inner child has
 // count 0 and its node index in `child`. Unused slots have count 0 and child kInvalidIndex; no box
 // value is missed by every ray under IEEE rules (a ray with tmax = inf reaches +inf), so the test
-// masks them out. Bounds are plain floats, not quantised, by measurement: a quantised 8-wide node
-// (128 bytes, half this one: a float origin and scale per axis, an 8-bit step per child bound, each q
-// chosen at build time so that the decoded origin + q * scale contains the float box, then this test
-// bit for bit on the decoded box, so exact as this one) ran at 0.71-0.95 of this node's speed on
-// goathead, whose tree fits in L2 (the decode lengthens each step's load-to-test chain), 0.85-1.08 on
-// dragon and bunny_hr, 0.90-1.06 on icosphere:8 (1.3M triangles) and 0.91-1.20 on the dragon at 1.6M
-// (any hit on random rays gained most): BVH/Embree, camera and random rays, closest and any hit, one
-// core, one binary switching layout per run, two interleaved rounds, medians of 9 (5 on the large
-// meshes). It gains only on trees far beyond the cache; Embree's default (not compact) BVH keeps
-// float nodes too.
+// masks them out. Bounds are plain floats, not quantised: a quantised node, half the size, was slower
+// on trees that fit the cache and gained only on trees far beyond it (docs/bench/history.md).
 template <int W>
 struct alignas(64) BvhWideNode {
   static constexpr int kWidth = W;
@@ -86,15 +78,8 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
 // stays x86-64-v2. Only "avx2", never "fma": with FMA enabled GCC may contract a product and a sum
 // into one rounding (-ffp-contract=fast is its default), and every lane must round as the scalar
 // test does.
-// Embree's form, one FMA per slab (t = lo * inv - (o + q) * inv, the origin term per ray, the pad q
-// widened by 2^-23 |o| to cover that term's rounding, a zero direction component given the finite
-// inv 2^17 max|inv| so that axis-parallel rays still cull, the exact kernel kept for rays where a term
-// would overflow or the widening pass the pad; a target("avx2,fma") walk under -ffp-contract=off)
-// visited the same nodes but was no faster: BVH/Embree of the FMA walk over this one, one binary
-// switching per run, interleaved, one core, medians of 6 (goathead, dragon, bunny_hr, icosphere:8):
-// camera closest 0.84-1.16, any 0.87-0.99, random closest 0.93-1.03, any 0.85-0.95. As visit_children
-// says, the test waits on the node's load, not on arithmetic (and the FMA form keeps nine per-ray
-// vectors live instead of seven).
+// Embree's form, one FMA per slab with a pad widened for its rounding, visited the same nodes but was
+// no faster (docs/bench/history.md): the test waits on the node's load, not on arithmetic.
 struct Box8Ray {
   __m256 origin[3], inv_dir[3];
   __m256 tmin, pad;
@@ -128,9 +113,6 @@ __attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, 
     t_near = _mm256_max_ps(near, t_near);
     t_far = _mm256_min_ps(far, t_far);
   }
-  // t_near <= t_far * scale and t_near <= tmax as two compares (one step less from the node's load to
-  // the next node's) measured 0.994-1.016, median 1.005 (BVH/Embree, goathead, dragon, bunny_hr, one
-  // core, five interleaved rounds): not kept.
   t_far = _mm256_min_ps(_mm256_mul_ps(t_far, _mm256_set1_ps(kBoxFarScale)), _mm256_set1_ps(tmax));
   _mm256_storeu_ps(t_entry, t_near);
   const __m256i unused = _mm256_cmpeq_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(node.child)),

@@ -4,9 +4,8 @@
 // padded cells front to back and stops once the closest hit lies before the next cell's entry.
 // The resolution follows pbrt-v1: about 3 * cbrt(N) cells along the longest axis, the other axes in
 // proportion, each at least 1; max_depth and leaf_size do not apply. Built in src/grid.cpp.
-// Measured (CPU time, one core, bunny 6.6k and dragon 100k triangles): 1, 1.5, 2, 3 and 4 * cbrt(N)
-// swapped ranks from run to run on the shared machine (+-40%), none clearly fastest, while memory grows
-// as the cube (dragon: 1.3, 2.1, 4.9, 10.2 MB for 1.5 to 4). pbrt's 3 is kept; 1.5 to 2 are cheaper.
+// No multiple of cbrt(N) from 1 to 4 was clearly fastest, while memory grows as its cube: pbrt's 3 is
+// kept, 1.5 to 2 are cheaper (docs/bench/history.md).
 #pragma once
 
 #include "box_intersection.h"

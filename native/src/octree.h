@@ -78,11 +78,9 @@ static_assert(sizeof(CornerRows) == 48);
 // pad, the NaN rules and the story's boxes are unchanged: the children are still box-tested, only
 // without repeating the work they share. (Revelles' successor table, which enters only the children
 // the ray pierces, would visit fewer than the padded boxes the exactness contract requires.)
-// Measured on one core under load, octree / BVH camera rays (closest hit), median of 9 interleaved
-// pairs, max_depth auto: the scalar slabs against eight box tests, bunny.obj 0.19 -> 0.25, dragon.obj
-// 0.18 -> 0.23, koala.obj 0.15 -> 0.17; these SSE slabs (with the walk entering the nearest child
-// without the stack, Octree::walk) against the scalar slabs, dragon.obj 0.16 -> 0.28, bunny_hr.obj
-// 0.39 (0.18 to 0.21 in the last full benchmark), the same box and triangle tests per ray.
+// Against eight scalar box tests, and then with the walk entering the nearest child without the stack
+// (Octree::walk), the octree's speed relative to the BVH rose on every mesh measured
+// (docs/bench/history.md).
 struct OctantRay {
   __m128 origin, inv_dir, pad, tmin;  // lane 3 unused (zero)
 
@@ -241,13 +239,8 @@ class Octree final : public StructureBase<Octree> {
   // in leaf order, up to kLeafLanes at a time in two packets, their corners gathered from corners_
   // for the SIMD test of the BVH (triangle_packets.h; bit for bit the scalar test's results).
   // `test(packets, lanes)` gets `lanes` real triangles (a packet's other lanes repeat its first) and
-  // returns true to stop the walk. Measured against the scalar loop through the mesh's index array
-  // (octree / BVH, closest hit, one core, CPU time, raylab_bench --cpu-time, two interleaved runs
-  // each; camera rays, then random): goathead 0.33 -> 0.38-0.43, 0.29-0.33 -> 0.43-0.47; bunny_hr
-  // 0.33-0.35 -> 0.39-0.40, 0.34-0.36 -> 0.48-0.50; dragon.obj 0.30-0.32 -> 0.44, 0.30-0.33 -> 0.42;
-  // icosphere:8 0.27-0.28 -> 0.31-0.32, 0.33 -> 0.45-0.46; armadillo 0.30-0.33 -> 0.42, 0.31-0.39 ->
-  // 0.38-0.41; koala 0.24 -> 0.37-0.38, 0.33-0.35 -> 0.45; the dragon at 1.6M triangles 0.26 -> 0.34,
-  // 0.36 -> 0.50. Memory: 48 bytes per triangle more (corners_), the same tree.
+  // returns true to stop the walk. Faster than the scalar loop through the mesh's index array on every
+  // mesh measured, for 48 bytes per triangle more (corners_; docs/bench/history.md).
   static constexpr int kLeafLanes = 8;
 
   template <class Test>
@@ -279,9 +272,8 @@ class Octree final : public StructureBase<Octree> {
   }
 
   // The first `lanes` triangles of `packets` against the ray, between tmin and `tmax`: the mask of
-  // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE). Measured
-  // (octree / BVH camera rays, closest hit, one core, CPU time, two interleaved runs each; dragon,
-  // goathead, koala): 8 lanes 0.38-0.39, 0.40-0.41, 0.31-0.36; 4 lanes 0.35-0.39, 0.36-0.40, 0.30-0.32.
+  // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE): eight lanes
+  // were equal or slightly faster.
   // kAny: only the first lane hit (first_hit_lane, triangle_packets.h).
   template <bool kAny>
   [[gnu::always_inline]] int test_packets(const TriangleTester& tester, const Watertight4Ray& ray4,
@@ -378,9 +370,8 @@ class Octree final : public StructureBase<Octree> {
                                                          Recorder& record, StackEntry* stack, int& top) {
     alignas(16) float t[8];
     // The children (8 bytes each, side by side) are loaded while their boxes are tested: on large
-    // meshes the walk waits on memory. With the leaves' prefetch (prefetched): octree / BVH camera
-    // rays on dragon.obj, closest hit, best of 15 interleaved repetitions, two runs each on a machine
-    // loaded 7 times over, 0.26 and 0.19 -> 0.31 and 0.32.
+    // meshes the walk waits on memory (with the leaves' prefetch: faster on dragon.obj,
+    // docs/bench/history.md).
     _mm_prefetch(reinterpret_cast<const char*>(nodes.data() + node.first), _MM_HINT_T0);
     const uint32_t hit =
         intersect_octants(OctantBox::load(entry.lo, entry.hi), octant_ray, far, t) & node.child_mask();

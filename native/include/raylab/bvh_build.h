@@ -34,9 +34,8 @@ struct BvhNode {
 static_assert(sizeof(BvhNode) == 32);
 
 // An allocator for arrays a build sizes once and then writes: on huge pages when large (see
-// allocate_huge), elements default-initialised (left as they are) rather than zeroed first. For the
-// binary tree's two arrays: build time 0.97-0.98x on the 1.3M sphere and the 1.6M dragon, 0.99x on
-// dragon (one thread, minimum of 3 x 9 builds), half the page faults.
+// allocate_huge), elements default-initialised (left as they are) rather than zeroed first: for the
+// binary tree's two arrays, half the page faults.
 template <class T>
 struct BuildAllocator {
   using value_type = T;

@@ -85,11 +85,8 @@ struct Watertight4Ray {
   __m128 origin[3];  // in the shear frame's order: kx, ky, kz
   __m128 sx, sy, sz;
   // Byte offsets in a TrianglePacket of the rows p[0][kx], p[0][ky], p[0][kz] (corner c's lie 48 c
-  // bytes further, a constant displacement in the load's address), once per ray: indexed by kx, ky
-  // and kz, GCC recomputed nine row addresses on every leaf and kept them on the stack (callgrind,
-  // goathead, random rays: 862 -> 832 instructions per closest-hit ray, 657 -> 644 any; 4-wide walk
-  // 1150 -> 1121 and 915 -> 903; BVH/Embree median 1.018, 0.990-1.091: goathead, dragon, bunny_hr, one
-  // core, four interleaved rounds).
+  // bytes further, a constant displacement in the load's address), once per ray: indexed by kx, ky and
+  // kz, GCC recomputed nine row addresses on every leaf and kept them on the stack.
   size_t row[3];
 
   explicit Watertight4Ray(const WatertightRay& r)
@@ -128,10 +125,8 @@ inline int exact_lane(const WatertightRay& ray, const TrianglePacket& packet, in
 // product overflowed), and the corners' z range, widened by the pre-check's margins, finite and
 // within (tmin, tmax] (t is a convex combination of the corners' z, so it lies there too, as does
 // its rounding to float). Lanes before the first sure lane are decided in lane order; the mask
-// returned has one bit, the first lane that hits, or none. BVH/Embree on any hit against deciding
-// every candidate in double (goathead, dragon, bunny_hr, one core, two runs of 4-5 interleaved
-// rounds): camera 1.01-1.13, random 1.03-1.09; callgrind, random any hit on goathead: 690 -> 657
-// instructions per ray. Skipping the double decision altogether (timing only) gained 1.03-1.10.
+// returned has one bit, the first lane that hits, or none. Faster on any hit than deciding every
+// candidate in double (docs/bench/history.md).
 template <class Decide>
 [[gnu::always_inline]] inline int first_hit_lane(int candidates, int sure, Decide decide) {
   const int first_sure = sure & -sure;
@@ -233,10 +228,8 @@ __attribute__((target("avx2"))) inline __m256 load_packet_pair(const TrianglePac
 // std::max does, NaN included; each compare is the scalar one or its negation, NaN falling the same
 // way), so it rounds as the scalar decision does, bit for bit. Returns the mask of lanes hit among
 // `lanes`, and writes t, u, v of all four lanes at t_out[0..3] (results only where hit).
-// Branch-free, four lanes for about the instructions of one: against exact_lane lane by lane,
-// BVH/Embree closest hit 0.995-1.047 (camera 1.013-1.022, random 1.008-1.046; goathead, dragon,
-// bunny_hr, one core, four interleaved rounds), 3-8 % fewer branches per ray (callgrind). Any hit
-// keeps deciding lane by lane up to the first hit: exact_packet there measured 0.99-1.01.
+// Branch-free, four lanes for about the instructions of one; any hit keeps deciding lane by lane up to
+// the first hit (docs/bench/history.md).
 __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r, const TrianglePacket& packet, int lanes,
                                                         float tmin, float tmax, float* t_out, float* u_out,
                                                         float* v_out) {
