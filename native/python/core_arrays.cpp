@@ -35,8 +35,8 @@ FloatRows float_rows(py::handle obj, const char* what, bool single_row_ok) {
   const bool rows = a.ndim() == 2 && a.shape(1) == 3;
   const bool single = single_row_ok && a.ndim() == 1 && a.shape(0) == 3;
   if (!rows && !single)
-    throw std::invalid_argument(std::string(what) + " must have shape (N, 3)" +
-                                (single_row_ok ? " or (3,)" : "") + ", got " + shape_text(a));
+    throw std::invalid_argument(std::string(what) + " must have shape (N, 3)" + (single_row_ok ? " or (3,)" : "") +
+                                ", got " + shape_text(a));
   const char k = dtype_kind(a);
   if (k != 'f' && k != 'i' && k != 'u')
     throw std::invalid_argument(std::string(what) + " must have a real number dtype (float32 preferred), got " +
@@ -74,8 +74,8 @@ void check_ray_row(const float* p, size_t ray, const char* what) {
 void check_interval(double tmin, double tmax) {
   if (std::isnan(tmin) || std::isnan(tmax)) throw std::invalid_argument("tmin and tmax must not be NaN");
   if (tmin > tmax)
-    throw std::invalid_argument("tmin (" + std::to_string(tmin) + ") is greater than tmax (" +
-                                std::to_string(tmax) + ")");
+    throw std::invalid_argument("tmin (" + std::to_string(tmin) + ") is greater than tmax (" + std::to_string(tmax) +
+                                ")");
 }
 
 Ray make_ray(const float* o, const float* d, size_t index, double tmin, double tmax) {
@@ -158,7 +158,6 @@ BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth
   s.triangle_test = triangle_test_from_name(str_parameter(triangle_test_name, "triangle_test", tests.c_str()));
   if (!memory_budget.is_none()) s.memory_budget = memory_budget_parameter(memory_budget, "memory_budget", true);
   return s;  // validated where it enters the core: build_structure, the Scene
-
 }
 
 std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py::handle tmin_value,

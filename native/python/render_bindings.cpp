@@ -231,7 +231,8 @@ RenderSettings settings_from_dict(py::handle object) {
   s.super_sampling = f.integer("super_sampling", s.super_sampling);
   s.max_recursion = f.integer("max_recursion", s.max_recursion);
   // The recursion depth was called max_depth, the octree's build setting's name.
-  if (f.has("max_depth")) value_error("settings: max_depth is now max_recursion (the octree's max_depth is a build setting)");
+  if (f.has("max_depth"))
+    value_error("settings: max_depth is now max_recursion (the octree's max_depth is a build setting)");
   s.shadows = f.boolean("shadows", s.shadows);
   s.background = f.color("background", s.background);
   s.ambient = f.color("ambient", s.ambient);
@@ -316,7 +317,8 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   {
     // Checked here, before anything is allocated: the result's numpy copies (image, instance,
     // distance) and its cost arrays (one float per counter, made when read) live beside its buffers.
-    constexpr size_t copies = 4 * sizeof(float) + sizeof(int32_t) + sizeof(float) + std::size(kCounters) * sizeof(float);
+    constexpr size_t copies =
+        4 * sizeof(float) + sizeof(int32_t) + sizeof(float) + std::size(kCounters) * sizeof(float);
     const Camera view(camera);
     try {
       require_render_memory(view.width(), view.height(), settings, copies);
@@ -383,9 +385,13 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   if (failure) std::rethrow_exception(failure);
 
   const py::ssize_t h = result.height, w = result.width;
-  PyRenderResult out{to_array(result.image, {h, w, 4}), result.cancelled, stats_dict(result.stats),
-                     to_array(result.instance, {h, w}), to_array(result.distance, {h, w}),
-                     std::move(result.pixel_work), py::none()};
+  PyRenderResult out{to_array(result.image, {h, w, 4}),
+                     result.cancelled,
+                     stats_dict(result.stats),
+                     to_array(result.instance, {h, w}),
+                     to_array(result.distance, {h, w}),
+                     std::move(result.pixel_work),
+                     py::none()};
   if (out.stats["structure"].cast<std::string>().empty() && py::hasattr(scene_object, "structure"))
     out.stats["structure"] = py::str(scene_object.attr("structure"));
   return out;

@@ -45,7 +45,8 @@ struct BoxRay {
   BoxRay(const Ray& ray, const glm::vec3& effective_dir, const Bounds& root)
       : origin(ray.origin), tmin(ray.tmin), tmax(ray.tmax), pad(box_pad(ray.origin, root)) {
     alignas(16) float inv[4];  // one packed division; each lane rounds as 1.0f / d[i]
-    _mm_store_ps(inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(effective_dir.x, effective_dir.y, effective_dir.z, 1.0f)));
+    _mm_store_ps(inv,
+                 _mm_div_ps(_mm_set1_ps(1.0f), _mm_setr_ps(effective_dir.x, effective_dir.y, effective_dir.z, 1.0f)));
     inv_dir = {inv[0], inv[1], inv[2]};
   }
 

@@ -18,9 +18,8 @@ BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& se
   // half as many as 4-wide ones and twice the size).
   const size_t needed = binary_bvh_build_bytes(n) + 2 * n * sizeof(TrianglePacket) / 4 + n * sizeof(Bvh4Node) / 2;
   if (needed > settings.memory_budget)
-    throw BuildError("bvh: building over " + std::to_string(n) + " triangles needs about " +
-                     std::to_string(needed) + " bytes, over the memory budget of " +
-                     std::to_string(settings.memory_budget));
+    throw BuildError("bvh: building over " + std::to_string(n) + " triangles needs about " + std::to_string(needed) +
+                     " bytes, over the memory budget of " + std::to_string(settings.memory_budget));
   const auto bounds_of = [&mesh](uint32_t begin, uint32_t end, Bounds* out) {
     for (uint32_t i = begin; i < end; ++i) out[i - begin] = mesh.triangle_bounds(i);
   };
@@ -116,8 +115,7 @@ class Collapser {
 };
 
 // Copies each leaf's triangles into its packets; unused lanes repeat the packet's first triangle.
-void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf,
-                  TrianglePacket* packets) {
+void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf, TrianglePacket* packets) {
   for (uint32_t p = 0; p < leaf.count; p += 4) {
     TrianglePacket& packet = packets[leaf.first_packet + p / 4];
     for (uint32_t lane = 0; lane < 4; ++lane) {
@@ -165,8 +163,8 @@ std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& b
 
 // The boxes of a wide tree; ids as Bvh::boxes says.
 template <int W>
-std::vector<BoxInfo> wide_boxes(const Bounds& root, const std::vector<BvhWideNode<W>>& nodes,
-                                size_t leaf_count, const std::function<uint32_t(uint32_t)>& leaf_id) {
+std::vector<BoxInfo> wide_boxes(const Bounds& root, const std::vector<BvhWideNode<W>>& nodes, size_t leaf_count,
+                                const std::function<uint32_t(uint32_t)>& leaf_id) {
   std::vector<BoxInfo> out(nodes.size() + leaf_count);
   if (nodes.empty()) return out;
   out[0] = {root, 0, false, 0};
@@ -209,8 +207,7 @@ std::vector<BoxInfo> Bvh::boxes() const {
 
 size_t Bvh::memory_bytes() const {
   return nodes4_.capacity() * sizeof(Bvh4Node) + nodes8_.capacity() * sizeof(Bvh8Node) +
-         packet_count_ * sizeof(TrianglePacket) +
-         leaf_packets_.capacity() * sizeof(uint32_t);
+         packet_count_ * sizeof(TrianglePacket) + leaf_packets_.capacity() * sizeof(uint32_t);
 }
 
 std::unique_ptr<Structure> build_bvh(MeshPtr mesh, const BuildSettings& settings) {

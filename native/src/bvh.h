@@ -6,11 +6,11 @@
 #pragma once
 
 #include "box_intersection.h"
-#include "raylab/bvh_build.h"
 #include "bvh_simd.h"
+#include "raylab/bvh_build.h"
 #include "raylab/structure.h"
-#include "triangle_loop.h"
 #include "raylab/triangle_packets.h"
+#include "triangle_loop.h"
 
 #include <algorithm>
 #include <bit>
@@ -161,8 +161,7 @@ class Bvh final : public StructureBase<Bvh> {
       }
       record_node(e, record);
       if (e.count == 0) {
-        descending =
-            visit_children<Width, kClosest>(e, boxw, kClosest ? best.t : ray.tmax, record, stack, size);
+        descending = visit_children<Width, kClosest>(e, boxw, kClosest ? best.t : ray.tmax, record, stack, size);
       } else if constexpr (kClosest) {
         found |= closest_in_leaf<Width>(tester, triw, e, best, record);
       } else if (any_in_leaf<Width>(tester, triw, e, record)) {
@@ -174,8 +173,8 @@ class Bvh final : public StructureBase<Bvh> {
   }
 
   uint32_t leaf_id(uint32_t first_packet) const {
-    return uint32_t(node_count() +
-                    (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) - leaf_packets_.begin()));
+    return uint32_t(node_count() + (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) -
+                                    leaf_packets_.begin()));
   }
 
   template <class Recorder>
@@ -275,8 +274,8 @@ class Bvh final : public StructureBase<Bvh> {
   [[gnu::always_inline]] bool closest_in_leaf(const TriangleTester& tester, const typename Width::TriangleRayW& triw,
                                               const Entry& leaf, Hit& best, Recorder& record) const {
     if (tester.test != TriangleTest::Watertight)
-      return closest_in_triangles(*mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, best,
-                                  record);
+      return closest_in_triangles(
+          *mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, best, record);
     bool found = false;
     for (uint32_t first = 0; first < leaf.count; first += Width::kLeafLanes) {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
@@ -292,8 +291,8 @@ class Bvh final : public StructureBase<Bvh> {
   [[gnu::always_inline]] bool any_in_leaf(const TriangleTester& tester, const typename Width::TriangleRayW& triw,
                                           const Entry& leaf, Recorder& record) const {
     if (tester.test != TriangleTest::Watertight)
-      return any_in_triangles(*mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); },
-                              tester.ray.tmax, record);
+      return any_in_triangles(
+          *mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, tester.ray.tmax, record);
     for (uint32_t first = 0; first < leaf.count; first += Width::kLeafLanes) {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));

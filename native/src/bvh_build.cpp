@@ -140,7 +140,6 @@ struct Binning {
       s[a] = usable[a] ? axis_scale : 0.0f;
     }
     scale = _mm_load_ps(s);
-
   }
   // Per lane, the bin before clamping to [0, kBins - 1].
   __m128i raw_bins(const PrimRef& r) const {
@@ -151,9 +150,7 @@ struct Binning {
   }
   // Per lane, all ones where bins_of(r) < split, for splits in [1, kBins - 1]: without the clamp,
   // which cannot change the comparison there (the partition's test; the clamp cost measurably).
-  __m128i below(const PrimRef& r, __m128i split) const {
-    return _mm_cmplt_epi32(raw_bins(r), split);
-  }
+  __m128i below(const PrimRef& r, __m128i split) const { return _mm_cmplt_epi32(raw_bins(r), split); }
 };
 
 // Reduces body(begin, end) over a range, starting from `identity`, in parallel when it is large.
@@ -301,7 +298,8 @@ class Builder {
     const Binning binning(info.centroids);
     const bool can_bin = binning.usable[0] || binning.usable[1] || binning.usable[2];
     // Identical centroids (e.g. all triangles the same) or a runaway depth: SAH cannot help.
-    if (!can_bin || depth >= kMaxSahDepth) return n <= max_leaf_size_ ? begin : median(begin, end, left_info, right_info);
+    if (!can_bin || depth >= kMaxSahDepth)
+      return n <= max_leaf_size_ ? begin : median(begin, end, left_info, right_info);
     if (n <= kObjectSweepMax) return sweep_objects(info, begin, end, left_info, right_info);
 
     const Bins bins = reduce_range(begin, end, Bins(), [&](uint32_t b, uint32_t e) {
@@ -348,8 +346,8 @@ class Builder {
         y.extend(bins.box[i - 1][1]);
         z.extend(bins.box[i - 1][2]);
         count = _mm_add_epi32(count, bins.counts(i - 1));
-        const __m128 cost = _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), blocks(count)),
-                                       _mm_mul_ps(right_area[i], right_blocks[i]));
+        const __m128 cost =
+            _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), blocks(count)), _mm_mul_ps(right_area[i], right_blocks[i]));
         // Both sides non-empty (else the cost is inf * 0) and strictly better: the lowest split wins ties.
         const __m128i empty = _mm_or_si128(_mm_cmpeq_epi32(count, zero), _mm_cmpeq_epi32(right_count[i], zero));
         const __m128 better = _mm_andnot_ps(_mm_castsi128_ps(empty), _mm_cmplt_ps(cost, best_cost));
@@ -425,7 +423,8 @@ class Builder {
         scanned = true;
       }
       const uint32_t swaps = std::min(count_left - first_left, count_right - first_right);
-      for (uint32_t k = 0; k < swaps; ++k) std::swap(refs[misplaced_left[first_left + k]], refs[misplaced_right[first_right + k]]);
+      for (uint32_t k = 0; k < swaps; ++k)
+        std::swap(refs[misplaced_left[first_left + k]], refs[misplaced_right[first_right + k]]);
       first_left += swaps;
       first_right += swaps;
       if (!scanned && swaps == 0) break;  // unreachable while left_count is the bins' count
@@ -495,8 +494,7 @@ class Builder {
         x.extend(ref(0, i - 1).lo, ref(0, i - 1).hi);
         y.extend(ref(1, i - 1).lo, ref(1, i - 1).hi);
         z.extend(ref(2, i - 1).lo, ref(2, i - 1).hi);
-        const __m128 cost =
-            _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), _mm_set1_ps(float(blocks(i)))), right_cost[i]);
+        const __m128 cost = _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), _mm_set1_ps(float(blocks(i)))), right_cost[i]);
         const __m128 better = _mm_cmplt_ps(cost, best_cost);  // the lowest split wins ties
         best_cost = _mm_blendv_ps(best_cost, cost, better);
         best_split = _mm_blendv_epi8(best_split, _mm_set1_epi32(int32_t(i)), _mm_castps_si128(better));
@@ -529,9 +527,7 @@ class Builder {
   }
 
   // Blocks of leaf_block_ primitives (a power of two): per lane, and for one count.
-  __m128 blocks(__m128i n) const {
-    return _mm_cvtepi32_ps(_mm_srl_epi32(_mm_add_epi32(n, leaf_round_), leaf_shift_));
-  }
+  __m128 blocks(__m128i n) const { return _mm_cvtepi32_ps(_mm_srl_epi32(_mm_add_epi32(n, leaf_round_), leaf_shift_)); }
   uint32_t blocks(uint32_t n) const { return (n + leaf_block_ - 1) >> std::countr_zero(leaf_block_); }
 
   static float half_area(const Box& b) {
@@ -543,7 +539,7 @@ class Builder {
 
   HugeArray<PrimRef>& refs_;
   HugeArray<BvhNode> slots_;
-  HugeArray<uint32_t> left_nodes_;  // an inner slot's left subtree node count
+  HugeArray<uint32_t> left_nodes_;     // an inner slot's left subtree node count
   HugeArray<const LocalTree*> local_;  // a slot's LocalTree, or null
   tbb::concurrent_vector<LocalTree> locals_;
   uint32_t max_leaf_size_;
@@ -561,7 +557,7 @@ size_t binary_bvh_build_bytes(size_t n) {
 
 namespace {
 
-constexpr uint32_t kRefGrain = 1024;              // primitives per task when making references
+constexpr uint32_t kRefGrain = 1024;  // primitives per task when making references
 
 }  // namespace
 
@@ -572,8 +568,7 @@ BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_lea
       max_leaf_size, leaf_block);
 }
 
-BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32_t max_leaf_size,
-                           uint32_t leaf_block) {
+BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32_t max_leaf_size, uint32_t leaf_block) {
   if (!std::has_single_bit(leaf_block))
     throw std::invalid_argument("build_binary_bvh: leaf_block must be a power of two");
   BinaryBvh bvh;

@@ -87,8 +87,8 @@ double wide_sah_cost(const std::vector<BvhWideNode<W>>& nodes, const Bounds& roo
     for (int i = 0; i < W; ++i) {
       if (!node.used(i)) continue;
       const double weight = root > 0.0 ? node.bounds(i).surface_area() / root : 1.0;
-      sum += weight * (node.leaf(i) ? double((node.count[i] + kPacketLanes - 1) / kPacketLanes)
-                                    : double(kSahTraversalCost));
+      sum += weight *
+             (node.leaf(i) ? double((node.count[i] + kPacketLanes - 1) / kPacketLanes) : double(kSahTraversalCost));
     }
   return sum;
 }

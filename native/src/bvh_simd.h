@@ -28,9 +28,7 @@ struct alignas(64) BvhWideNode {
 
   bool used(int i) const { return count[i] != 0 || child[i] != kInvalidIndex; }
   bool leaf(int i) const { return count[i] != 0; }
-  Bounds bounds(int i) const {
-    return {{lo[0][i], lo[1][i], lo[2][i]}, {hi[0][i], hi[1][i], hi[2][i]}};
-  }
+  Bounds bounds(int i) const { return {{lo[0][i], lo[1][i], lo[2][i]}, {hi[0][i], hi[1][i], hi[2][i]}}; }
 };
 using Bvh4Node = BvhWideNode<4>;
 using Bvh8Node = BvhWideNode<8>;
@@ -58,10 +56,8 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
   __m128 t_near = r.tmin;
   __m128 t_far = _mm_set1_ps(kInfinity);  // unscaled; see intersect_box8
   for (int a = 0; a < 3; ++a) {
-    const __m128 t0 =
-        _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(_mm_load_ps(node.lo[a]), r.origin[a]), r.pad), r.inv_dir[a]);
-    const __m128 t1 =
-        _mm_mul_ps(_mm_add_ps(_mm_sub_ps(_mm_load_ps(node.hi[a]), r.origin[a]), r.pad), r.inv_dir[a]);
+    const __m128 t0 = _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(_mm_load_ps(node.lo[a]), r.origin[a]), r.pad), r.inv_dir[a]);
+    const __m128 t1 = _mm_mul_ps(_mm_add_ps(_mm_sub_ps(_mm_load_ps(node.hi[a]), r.origin[a]), r.pad), r.inv_dir[a]);
     const __m128 near = _mm_min_ps(t1, t0);
     const __m128 far = _mm_max_ps(t0, t1);
     t_near = _mm_max_ps(near, t_near);
@@ -69,8 +65,8 @@ inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __
   }
   t_far = _mm_min_ps(_mm_mul_ps(t_far, _mm_set1_ps(kBoxFarScale)), _mm_set1_ps(tmax));
   t_entry = t_near;
-  const __m128i unused = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(node.child)),
-                                         _mm_set1_epi32(int(kInvalidIndex)));
+  const __m128i unused =
+      _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(node.child)), _mm_set1_epi32(int(kInvalidIndex)));
   return _mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(unused), _mm_cmple_ps(t_near, t_far)));
 }
 
@@ -104,10 +100,10 @@ __attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, 
   // multiplications fewer per node.
   __m256 t_far = _mm256_set1_ps(kInfinity);
   for (int a = 0; a < 3; ++a) {
-    const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_load_ps(node.lo[a]), r.origin[a]), r.pad),
-                                    r.inv_dir[a]);
-    const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_load_ps(node.hi[a]), r.origin[a]), r.pad),
-                                    r.inv_dir[a]);
+    const __m256 t0 =
+        _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_load_ps(node.lo[a]), r.origin[a]), r.pad), r.inv_dir[a]);
+    const __m256 t1 =
+        _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_load_ps(node.hi[a]), r.origin[a]), r.pad), r.inv_dir[a]);
     const __m256 near = _mm256_min_ps(t1, t0);
     const __m256 far = _mm256_max_ps(t0, t1);
     t_near = _mm256_max_ps(near, t_near);

@@ -62,7 +62,8 @@ class Grid final : public StructureBase<Grid> {
                                   : std::min(bounds_.hi[axis], bounds_.lo[axis] + float(i) * cell_size_[axis]);
   }
   Bounds cell_bounds(const glm::ivec3& c) const {
-    return Bounds({plane(0, c.x), plane(1, c.y), plane(2, c.z)}, {plane(0, c.x + 1), plane(1, c.y + 1), plane(2, c.z + 1)});
+    return Bounds({plane(0, c.x), plane(1, c.y), plane(2, c.z)},
+                  {plane(0, c.x + 1), plane(1, c.y + 1), plane(2, c.z + 1)});
   }
   bool occupied(uint32_t cell) const { return (occupied_[cell >> 6] >> (cell & 63u)) & 1u; }
   // The triangles of a cell, in ascending index order.
@@ -132,8 +133,8 @@ class Grid final : public StructureBase<Grid> {
   // `fixed` narrowed to its newest cell (all three in full when fixed is -1): each gets its padded box
   // test, and a cell entered at or before limit() is visited. Returns true when visit_cell says stop.
   template <class Recorder, class Limit, class VisitCell>
-  bool visit_cells(const AxisWindow (&windows)[3], int fixed, const BoxRay& box_ray, Recorder& record,
-                   Limit& limit, VisitCell& visit_cell) const {
+  bool visit_cells(const AxisWindow (&windows)[3], int fixed, const BoxRay& box_ray, Recorder& record, Limit& limit,
+                   VisitCell& visit_cell) const {
     int from[3], to[3];
     for (int a = 0; a < 3; ++a) {
       // A cell whose padded slab is empty (a zero-width cell at negative t: kBoxFarScale shrinks a

@@ -37,9 +37,7 @@ struct OctreeNode {
   uint32_t triangle_count() const { return bits & ~kLeaf; }
   uint32_t child_mask() const { return bits & 0xffu; }
   // The node index of the child in `octant`, which must exist.
-  uint32_t child(int octant) const {
-    return first + uint32_t(std::popcount(child_mask() & ((1u << octant) - 1u)));
-  }
+  uint32_t child(int octant) const { return first + uint32_t(std::popcount(child_mask() & ((1u << octant) - 1u))); }
 };
 
 // A triangle's three corners as 16-byte rows (x, y, z, 0), one triangle after another in index
@@ -170,23 +168,28 @@ class Octree final : public StructureBase<Octree> {
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
     if (settings_.triangle_test != TriangleTest::Watertight)
-      return closest_over_leaves(*mesh_, settings_.triangle_test, ray, hit, record, [&](auto limit, auto visit) {
-        walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
-      }, Mailbox{});
+      return closest_over_leaves(
+          *mesh_, settings_.triangle_test, ray, hit, record,
+          [&](auto limit, auto visit) {
+            walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
+          },
+          Mailbox{});
     record.ray();
     const TriangleTester tester(ray, TriangleTest::Watertight);
     const Watertight4Ray ray4(tester.watertight);
     Hit best = initial_hit(ray);
     bool found = false;
     Mailbox mailbox;
-    walk(ray, record, [&] { return best.t; }, [&](const OctreeNode& leaf) {
-      return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
-        alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-        const int mask = test_packets<false>(tester, ray4, packets, lanes, best.t, t, u, v);
-        found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
-        return false;
-      });
-    });
+    walk(
+        ray, record, [&] { return best.t; },
+        [&](const OctreeNode& leaf) {
+          return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
+            alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
+            const int mask = test_packets<false>(tester, ray4, packets, lanes, best.t, t, u, v);
+            found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
+            return false;
+          });
+        });
     if (found) hit = best;
     return found;
   }
@@ -194,21 +197,26 @@ class Octree final : public StructureBase<Octree> {
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
     if (settings_.triangle_test != TriangleTest::Watertight)
-      return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, [&](auto limit, auto visit) {
-        walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
-      }, Mailbox{});
+      return any_over_leaves(
+          *mesh_, settings_.triangle_test, ray, record,
+          [&](auto limit, auto visit) {
+            walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
+          },
+          Mailbox{});
     record.ray();
     const TriangleTester tester(ray, TriangleTest::Watertight);
     const Watertight4Ray ray4(tester.watertight);
     bool occluded = false;
     Mailbox mailbox;
-    walk(ray, record, [&] { return ray.tmax; }, [&](const OctreeNode& leaf) {
-      return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
-        alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-        const int mask = test_packets<true>(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
-        return occluded = record_any_lanes(packets, lanes, mask, record);
-      });
-    });
+    walk(
+        ray, record, [&] { return ray.tmax; },
+        [&](const OctreeNode& leaf) {
+          return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
+            alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
+            const int mask = test_packets<true>(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
+            return occluded = record_any_lanes(packets, lanes, mask, record);
+          });
+        });
     return occluded;
   }
 
@@ -280,8 +288,8 @@ class Octree final : public StructureBase<Octree> {
                                           const TrianglePacket* packets, int lanes, float tmax, float* t, float* u,
                                           float* v) const {
     if (leaf_lanes_ == 8)
-      return test_packets8<kAny>(tester.watertight, packets[0], lanes > 4 ? packets[1] : packets[0],
-                                 (1 << lanes) - 1, tester.ray.tmin, tmax, t, u, v);
+      return test_packets8<kAny>(tester.watertight, packets[0], lanes > 4 ? packets[1] : packets[0], (1 << lanes) - 1,
+                                 tester.ray.tmin, tmax, t, u, v);
     int mask = intersect_watertight4<kAny>(ray4, packets[0], tester.ray.tmin, tmax, t, u, v);
     // The unused lanes repeat their packet's first triangle, so an any-hit mask's first lane is real.
     if (lanes > 4 && !(kAny && mask != 0))
@@ -292,8 +300,8 @@ class Octree final : public StructureBase<Octree> {
   // Not inlined: the walk is compiled for SSE, this alone for AVX2.
   template <bool kAny>
   __attribute__((target("avx2"), noinline)) static int test_packets8(const WatertightRay& ray, const TrianglePacket& a,
-                                                                 const TrianglePacket& b, int lanes, float tmin,
-                                                                 float tmax, float* t, float* u, float* v) {
+                                                                     const TrianglePacket& b, int lanes, float tmin,
+                                                                     float tmax, float* t, float* u, float* v) {
     const Watertight8Ray ray8(ray);
     return intersect_watertight8<kAny>(ray8, a, b, lanes, tmin, tmax, t, u, v);
   }
@@ -352,7 +360,8 @@ class Octree final : public StructureBase<Octree> {
         const OctreeNode node = nodes_[entry.node];
         if (node.leaf()) {
           if (visit_leaf(node)) return;
-        } else if (enter_nearest_child(nodes_, entry, node, ray, octant_ray, near_octant, limit(), record, stack, top)) {
+        } else if (enter_nearest_child(nodes_, entry, node, ray, octant_ray, near_octant, limit(), record, stack,
+                                       top)) {
           continue;
         }
       }
@@ -373,8 +382,7 @@ class Octree final : public StructureBase<Octree> {
     // meshes the walk waits on memory (with the leaves' prefetch: faster on dragon.obj,
     // docs/bench/history.md).
     _mm_prefetch(reinterpret_cast<const char*>(nodes.data() + node.first), _MM_HINT_T0);
-    const uint32_t hit =
-        intersect_octants(OctantBox::load(entry.lo, entry.hi), octant_ray, far, t) & node.child_mask();
+    const uint32_t hit = intersect_octants(OctantBox::load(entry.lo, entry.hi), octant_ray, far, t) & node.child_mask();
     const Bounds box = entry.box();
     const int depth = entry.depth + 1;
     if constexpr (Recorder::kActive) {
@@ -407,9 +415,9 @@ class Octree final : public StructureBase<Octree> {
   Bounds root_;
   bool automatic_depth_ = false;
   int max_depth_ = 0;
-  std::vector<OctreeNode> nodes_;     // breadth first: node 0 is the root
-  std::vector<uint32_t> triangles_;   // the leaves' runs, one after another
-  HugeArray<CornerRows> corners_;     // per triangle of the mesh, for the watertight leaf test
+  std::vector<OctreeNode> nodes_;    // breadth first: node 0 is the root
+  std::vector<uint32_t> triangles_;  // the leaves' runs, one after another
+  HugeArray<CornerRows> corners_;    // per triangle of the mesh, for the watertight leaf test
   int leaf_lanes_ = 4;
 };
 

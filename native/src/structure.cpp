@@ -30,8 +30,8 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
   return s;
 }
 
-void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
+void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
+                       int threads, std::span<TraversalStats> per_ray) {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
   for_each_ray(
       rays.size(), threads, stats,
@@ -44,8 +44,8 @@ void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<
       per_ray);
 }
 
-void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
+void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded, TraversalStats* stats,
+                   int threads, std::span<TraversalStats> per_ray) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
   for_each_ray(
       rays.size(), threads, stats,

@@ -28,11 +28,10 @@ std::unique_ptr<Structure> remake(const Structure& source, MeshPtr moved) {
 // VRT's levels in order, then what raylab adds. `none` and `aabb` are VRT's models: every object meets
 // every ray and its own structure decides, so a Scene gives them no top level.
 constexpr StructureInfo kStructures[] = {
-    {StructureKind::None, "none", "None", "Every ray tests every triangle (brute force)", "the object", false,
-     false, false, false, &make<BruteForce>, &remake<BruteForce>},
-    {StructureKind::Aabb, "aabb", "AABB",
-     "One axis-aligned bounding box per object; rays that miss it are ignored", "the AABB", false, false, false,
-     true, &make<AabbStructure>, &remake<AabbStructure>},
+    {StructureKind::None, "none", "None", "Every ray tests every triangle (brute force)", "the object", false, false,
+     false, false, &make<BruteForce>, &remake<BruteForce>},
+    {StructureKind::Aabb, "aabb", "AABB", "One axis-aligned bounding box per object; rays that miss it are ignored",
+     "the AABB", false, false, false, true, &make<AabbStructure>, &remake<AabbStructure>},
     {StructureKind::Octree, "octree", "Octree",
      "A cube split into octants while a node holds more than leaf size triangles, down to the maximum depth "
      "(auto: derived from the triangle count and the memory budget)",

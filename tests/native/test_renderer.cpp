@@ -1,12 +1,12 @@
-#include "raylab/camera.h"
 #include "ray_offset.h"
+#include "raylab/camera.h"
 #include "raylab/renderer.h"
 #include "raylab/scene.h"
 #include "raylab/triangle_intersection.h"
 
+#include <gtest/gtest.h>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
-#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <atomic>
@@ -370,7 +370,8 @@ TEST(Renderer, EachPixelsWorkAddsUpToTheTotalsAndPrimaryCountsTheCameraRaysAlone
         f.scene.closest(camera.ray(float(x) + (float(k) + 0.5f) / 2.0f, float(y) + (float(j) + 0.5f) / 2.0f), hit,
                         &own);
       }
-    for (const CounterInfo& c : kCounters) ASSERT_EQ(primary.pixel_work[i].*c.field, own.*c.field) << c.name << " " << i;
+    for (const CounterInfo& c : kCounters)
+      ASSERT_EQ(primary.pixel_work[i].*c.field, own.*c.field) << c.name << " " << i;
   }
 }
 

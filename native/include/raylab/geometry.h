@@ -73,8 +73,14 @@ struct Bounds {
   Bounds(const glm::vec3& a, const glm::vec3& b) : lo(a), hi(b) {}
 
   bool empty() const { return lo.x > hi.x || lo.y > hi.y || lo.z > hi.z; }
-  void extend(const glm::vec3& p) { lo = glm::min(lo, p); hi = glm::max(hi, p); }
-  void extend(const Bounds& b) { lo = glm::min(lo, b.lo); hi = glm::max(hi, b.hi); }
+  void extend(const glm::vec3& p) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  void extend(const Bounds& b) {
+    lo = glm::min(lo, b.lo);
+    hi = glm::max(hi, b.hi);
+  }
   glm::vec3 extent() const { return hi - lo; }
   glm::vec3 center() const { return 0.5f * (lo + hi); }
   float surface_area() const {

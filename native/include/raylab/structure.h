@@ -29,7 +29,7 @@ struct BuildSettings {
 
   StructureKind kind = StructureKind::Bvh;
   int max_depth = kAutoDepth;  // octree: depth 0 is the root alone, or kAutoDepth
-  int leaf_size = 8;   // octree: split while a node holds more triangles than this; bvh: max per leaf
+  int leaf_size = 8;           // octree: split while a node holds more triangles than this; bvh: max per leaf
   TriangleTest triangle_test = TriangleTest::Watertight;
   size_t memory_budget = kDefaultMemoryBudget;  // a build that would need more stops with BuildError
 
@@ -163,10 +163,10 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
 // Batch queries, parallel over rays (TBB) on at most `threads` threads (0: all cores). `stats` may be
 // null: then nothing is counted. `per_ray`, one per ray or empty, gets each ray's own counters (and
 // `stats` their sum).
-void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
-void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
+void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
+                       int threads = 0, std::span<TraversalStats> per_ray = {});
+void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded, TraversalStats* stats,
+                   int threads = 0, std::span<TraversalStats> per_ray = {});
 // Closest hits and each ray's status (what its story would say, without recording the story): the
 // probe's fan of thousands of rays.
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,

@@ -101,9 +101,7 @@ struct TriangleHit {
 // quotient, product and difference), and an edge function cx*by - cy*bx by at most about
 // 24u(s + 2z)s (pbrt-v4's gamma(n) accounting); 32u leaves room for the bound's own rounding, and the
 // FLT_MIN term for products that underflow.
-inline float watertight_filter_bound(float s, float z) {
-  return (32.0f * 0x1p-24f * (s + 2.0f * z)) * s + 0x1p-126f;
-}
+inline float watertight_filter_bound(float s, float z) { return (32.0f * 0x1p-24f * (s + 2.0f * z)) * s + 0x1p-126f; }
 
 // The decision, in double precision: sheared coordinates from the float vertices and origin (their
 // differences are exact in double unless their magnitudes differ by more than 2^29), edge functions
@@ -150,8 +148,8 @@ inline bool intersect_watertight_exact(const WatertightRay& r, const glm::vec3& 
 // filter rejects the triangles that certainly miss (two edge functions of opposite sign, each beyond
 // its error bound: Shewchuk's filtered predicates); the rest are decided in double precision by
 // intersect_watertight_exact, so the answer does not depend on which path, or which SIMD lane, ran.
-inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, const glm::vec3& p1,
-                                 const glm::vec3& p2, float tmin, float tmax, TriangleHit& out) {
+inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2,
+                                 float tmin, float tmax, TriangleHit& out) {
   const glm::vec3 a = p0 - r.origin;
   const glm::vec3 b = p1 - r.origin;
   const glm::vec3 c = p2 - r.origin;
@@ -172,8 +170,8 @@ inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, co
   return intersect_watertight_exact(r, p0, p1, p2, tmin, tmax, out);
 }
 
-inline bool intersect_moller_trumbore(const Ray& ray, const glm::vec3& p0, const glm::vec3& p1,
-                                      const glm::vec3& p2, float tmin, float tmax, TriangleHit& out) {
+inline bool intersect_moller_trumbore(const Ray& ray, const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2,
+                                      float tmin, float tmax, TriangleHit& out) {
   const glm::vec3 e1 = p1 - p0;
   const glm::vec3 e2 = p2 - p0;
   const glm::vec3 p = glm::cross(ray.direction, e2);
@@ -211,9 +209,8 @@ struct TriangleTester {
     const glm::vec3& p0 = mesh.vertices[idx.x];
     const glm::vec3& p1 = mesh.vertices[idx.y];
     const glm::vec3& p2 = mesh.vertices[idx.z];
-    return test == TriangleTest::Watertight
-               ? intersect_watertight(watertight, p0, p1, p2, ray.tmin, tmax, out)
-               : intersect_moller_trumbore(ray, p0, p1, p2, ray.tmin, tmax, out);
+    return test == TriangleTest::Watertight ? intersect_watertight(watertight, p0, p1, p2, ray.tmin, tmax, out)
+                                            : intersect_moller_trumbore(ray, p0, p1, p2, ray.tmin, tmax, out);
   }
 };
 

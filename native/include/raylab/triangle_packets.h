@@ -25,15 +25,17 @@ struct alignas(16) TrianglePacket {
 static_assert(sizeof(TrianglePacket) == 160);
 
 // The triangle in lane `lane` of a run of consecutive packets (lanes 0-3 the first packet's).
-inline uint32_t packet_triangle(const TrianglePacket* packets, int lane) { return packets[lane / 4].triangle[lane % 4]; }
+inline uint32_t packet_triangle(const TrianglePacket* packets, int lane) {
+  return packets[lane / 4].triangle[lane % 4];
+}
 
 // One packet test's hits (`mask`, with their t, u, v) folded into `best` in lane order, as the scalar
 // loop folds them (closer(): the nearer t, a tie to the lower triangle index), after every tested lane is
 // recorded. The BVH's and the octree's leaves share it, so that their counters and stories agree.
 template <class Recorder>
 [[gnu::always_inline]] inline bool take_closest_lanes(const TrianglePacket* packets, int lanes, int mask,
-                                                      const float* t, const float* u, const float* v,
-                                                      Recorder& record, Hit& best) {
+                                                      const float* t, const float* u, const float* v, Recorder& record,
+                                                      Hit& best) {
   if constexpr (Recorder::kActive)
     for (int lane = 0; lane < lanes; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
   bool found = false;
@@ -54,7 +56,8 @@ template <class Recorder>
 // An any-hit packet test's lanes recorded as the scalar loop tests them: every triangle up to the first
 // hit. Returns whether a lane hit.
 template <class Recorder>
-[[gnu::always_inline]] inline bool record_any_lanes(const TrianglePacket* packets, int lanes, int mask, Recorder& record) {
+[[gnu::always_inline]] inline bool record_any_lanes(const TrianglePacket* packets, int lanes, int mask,
+                                                    Recorder& record) {
   if constexpr (Recorder::kActive) {
     const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
     for (int lane = 0; lane < tested; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
@@ -159,8 +162,10 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   const __m128 u = _mm_sub_ps(_mm_mul_ps(x[2], y[1]), _mm_mul_ps(y[2], x[1]));
   const __m128 v = _mm_sub_ps(_mm_mul_ps(x[0], y[2]), _mm_mul_ps(y[0], x[2]));
   const __m128 w = _mm_sub_ps(_mm_mul_ps(x[1], y[0]), _mm_mul_ps(y[1], x[0]));
-  const __m128 mx = _mm_max_ps(_mm_andnot_ps(sign, x[0]), _mm_max_ps(_mm_andnot_ps(sign, x[1]), _mm_andnot_ps(sign, x[2])));
-  const __m128 my = _mm_max_ps(_mm_andnot_ps(sign, y[0]), _mm_max_ps(_mm_andnot_ps(sign, y[1]), _mm_andnot_ps(sign, y[2])));
+  const __m128 mx =
+      _mm_max_ps(_mm_andnot_ps(sign, x[0]), _mm_max_ps(_mm_andnot_ps(sign, x[1]), _mm_andnot_ps(sign, x[2])));
+  const __m128 my =
+      _mm_max_ps(_mm_andnot_ps(sign, y[0]), _mm_max_ps(_mm_andnot_ps(sign, y[1]), _mm_andnot_ps(sign, y[2])));
   // watertight_filter_bound, operation for operation.
   const __m128 s = _mm_add_ps(mx, my);
   const __m128 bound = _mm_add_ps(
@@ -184,12 +189,14 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   const __m128 margin = _mm_set1_ps(0x1p-20f), smallest = _mm_set1_ps(0x1p-126f);
   const __m128 below = _mm_sub_ps(zlo, _mm_add_ps(_mm_mul_ps(margin, _mm_andnot_ps(sign, zlo)), smallest));
   const __m128 above = _mm_add_ps(zhi, _mm_add_ps(_mm_mul_ps(margin, _mm_andnot_ps(sign, zhi)), smallest));
-  candidates &= ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
+  candidates &=
+      ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
   if (candidates == 0) return 0;
   if constexpr (kAny) {
     const __m128 one_sign = _mm_or_ps(_mm_and_ps(_mm_and_ps(un, vn), wn), _mm_and_ps(_mm_and_ps(up, vp), wp));
-    const __m128 in_range = _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmin)), _mm_cmple_ps(above, _mm_set1_ps(tmax))),
-                                       _mm_cmplt_ps(above, _mm_set1_ps(kInfinity)));
+    const __m128 in_range =
+        _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmin)), _mm_cmple_ps(above, _mm_set1_ps(tmax))),
+                   _mm_cmplt_ps(above, _mm_set1_ps(kInfinity)));
     const __m128 sure = _mm_and_ps(_mm_and_ps(one_sign, in_range), _mm_cmplt_ps(s, _mm_set1_ps(0x1p60f)));
     return first_hit_lane(candidates, _mm_movemask_ps(sure) & candidates, [&](int lane) {
       return exact_lane(r.ray, packet, lane, lane, tmin, tmax, t_out, u_out, v_out) != 0;
@@ -230,8 +237,8 @@ __attribute__((target("avx2"))) inline __m256 load_packet_pair(const TrianglePac
 // `lanes`, and writes t, u, v of all four lanes at t_out[0..3] (results only where hit).
 // Branch-free, four lanes for about the instructions of one; any hit keeps deciding lane by lane up to
 // the first hit (docs/bench/history.md).
-__attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r, const TrianglePacket& packet, int lanes,
-                                                        float tmin, float tmax, float* t_out, float* u_out,
+__attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r, const TrianglePacket& packet,
+                                                        int lanes, float tmin, float tmax, float* t_out, float* u_out,
                                                         float* v_out) {
   const WatertightRay& ray = r.ray;
   // The origin's float lanes in the shear frame's order, widened exactly to double.
@@ -256,10 +263,12 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
   const __m256d u = _mm256_sub_pd(_mm256_mul_pd(x[2], y[1]), _mm256_mul_pd(y[2], x[1]));
   const __m256d v = _mm256_sub_pd(_mm256_mul_pd(x[0], y[2]), _mm256_mul_pd(y[0], x[2]));
   const __m256d w = _mm256_sub_pd(_mm256_mul_pd(x[1], y[0]), _mm256_mul_pd(y[1], x[0]));
-  const __m256d negative = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_LT_OQ), _mm256_cmp_pd(v, zero, _CMP_LT_OQ)),
-                                        _mm256_cmp_pd(w, zero, _CMP_LT_OQ));
-  const __m256d positive = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_GT_OQ), _mm256_cmp_pd(v, zero, _CMP_GT_OQ)),
-                                        _mm256_cmp_pd(w, zero, _CMP_GT_OQ));
+  const __m256d negative =
+      _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_LT_OQ), _mm256_cmp_pd(v, zero, _CMP_LT_OQ)),
+                   _mm256_cmp_pd(w, zero, _CMP_LT_OQ));
+  const __m256d positive =
+      _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_GT_OQ), _mm256_cmp_pd(v, zero, _CMP_GT_OQ)),
+                   _mm256_cmp_pd(w, zero, _CMP_GT_OQ));
   const __m256d det = _mm256_add_pd(_mm256_add_pd(u, v), w);
   const __m256d s = _mm256_add_pd(sx, sy);
   const __m256d plane = _mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0x1p-24), s), s);
@@ -268,11 +277,13 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
                                            _mm256_and_pd(_mm256_cmp_pd(_mm256_and_pd(det, abs_mask), plane, _CMP_GE_OQ),
                                                          _mm256_cmp_pd(det, zero, _CMP_NEQ_UQ)));
   const __m256d inv_det = _mm256_div_pd(_mm256_set1_pd(1.0), det);
-  const __m256d num = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(u, z[0]), _mm256_mul_pd(v, z[1])), _mm256_mul_pd(w, z[2]));
+  const __m256d num =
+      _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(u, z[0]), _mm256_mul_pd(v, z[1])), _mm256_mul_pd(w, z[2]));
   const __m128 t = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_mul_pd(num, _mm256_set1_pd(ray.dsz)), inv_det));
   // tmin < t <= tmax (false for NaN), t not infinite.
-  const __m128 in_range = _mm_and_ps(_mm_and_ps(_mm_cmp_ps(t, _mm_set1_ps(tmin), _CMP_GT_OQ), _mm_cmp_ps(t, _mm_set1_ps(tmax), _CMP_LE_OQ)),
-                                     _mm_cmp_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), t), _mm_set1_ps(kInfinity), _CMP_NEQ_UQ));
+  const __m128 in_range =
+      _mm_and_ps(_mm_and_ps(_mm_cmp_ps(t, _mm_set1_ps(tmin), _CMP_GT_OQ), _mm_cmp_ps(t, _mm_set1_ps(tmax), _CMP_LE_OQ)),
+                 _mm_cmp_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), t), _mm_set1_ps(kInfinity), _CMP_NEQ_UQ));
   _mm_storeu_ps(t_out, t);
   _mm_storeu_ps(u_out, _mm256_cvtpd_ps(_mm256_mul_pd(v, inv_det)));
   _mm_storeu_ps(v_out, _mm256_cvtpd_ps(_mm256_mul_pd(w, inv_det)));
@@ -287,9 +298,9 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
 // kAny: as first_hit_lane says.
 template <bool kAny = false>
 __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertight8Ray& r, const TrianglePacket& a,
-                                                                const TrianglePacket& b, int lanes, float tmin,
-                                                                float tmax, float t_out[8], float u_out[8],
-                                                                float v_out[8]) {
+                                                                 const TrianglePacket& b, int lanes, float tmin,
+                                                                 float tmax, float t_out[8], float u_out[8],
+                                                                 float v_out[8]) {
   const __m256 sign = _mm256_set1_ps(-0.0f);
   __m256 x[3], y[3], ez[3], az = _mm256_setzero_ps();
   for (int c = 0; c < 3; ++c) {
@@ -309,8 +320,9 @@ __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertigh
                                   _mm256_max_ps(_mm256_andnot_ps(sign, y[1]), _mm256_andnot_ps(sign, y[2])));
   const __m256 s = _mm256_add_ps(mx, my);
   const __m256 bound = _mm256_add_ps(
-      _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(32.0f * 0x1p-24f), _mm256_add_ps(s, _mm256_mul_ps(_mm256_set1_ps(2.0f), az))),
-                    s),
+      _mm256_mul_ps(
+          _mm256_mul_ps(_mm256_set1_ps(32.0f * 0x1p-24f), _mm256_add_ps(s, _mm256_mul_ps(_mm256_set1_ps(2.0f), az))),
+          s),
       _mm256_set1_ps(0x1p-126f));
   const __m256 nbound = _mm256_xor_ps(bound, sign);
   const __m256 un = _mm256_cmp_ps(u, nbound, _CMP_LT_OQ), vn = _mm256_cmp_ps(v, nbound, _CMP_LT_OQ),
@@ -325,10 +337,8 @@ __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertigh
   const __m256 z0 = _mm256_mul_ps(r.sz, ez[0]), z1 = _mm256_mul_ps(r.sz, ez[1]), z2 = _mm256_mul_ps(r.sz, ez[2]);
   const __m256 zlo = _mm256_min_ps(z0, _mm256_min_ps(z1, z2)), zhi = _mm256_max_ps(z0, _mm256_max_ps(z1, z2));
   const __m256 margin = _mm256_set1_ps(0x1p-20f), smallest = _mm256_set1_ps(0x1p-126f);
-  const __m256 below =
-      _mm256_sub_ps(zlo, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zlo)), smallest));
-  const __m256 above =
-      _mm256_add_ps(zhi, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zhi)), smallest));
+  const __m256 below = _mm256_sub_ps(zlo, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zlo)), smallest));
+  const __m256 above = _mm256_add_ps(zhi, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zhi)), smallest));
   candidates &= ~_mm256_movemask_ps(_mm256_or_ps(_mm256_cmp_ps(below, _mm256_set1_ps(tmax), _CMP_GT_OQ),
                                                  _mm256_cmp_ps(above, _mm256_set1_ps(tmin), _CMP_LE_OQ)));
   if constexpr (kAny) {
@@ -338,7 +348,8 @@ __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertigh
     const __m256 in_range = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(below, _mm256_set1_ps(tmin), _CMP_GT_OQ),
                                                         _mm256_cmp_ps(above, _mm256_set1_ps(tmax), _CMP_LE_OQ)),
                                           _mm256_cmp_ps(above, _mm256_set1_ps(kInfinity), _CMP_LT_OQ));
-    const __m256 sure = _mm256_and_ps(_mm256_and_ps(one_sign, in_range), _mm256_cmp_ps(s, _mm256_set1_ps(0x1p60f), _CMP_LT_OQ));
+    const __m256 sure =
+        _mm256_and_ps(_mm256_and_ps(one_sign, in_range), _mm256_cmp_ps(s, _mm256_set1_ps(0x1p60f), _CMP_LT_OQ));
     return first_hit_lane(candidates, _mm256_movemask_ps(sure) & candidates, [&](int lane) {
       return exact_lane(r.ray, lane < 4 ? a : b, lane & 3, lane, tmin, tmax, t_out, u_out, v_out) != 0;
     });
