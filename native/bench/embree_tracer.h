@@ -1,5 +1,6 @@
-// Embree (3 on Debian 12, 4 on Debian 13) on the same mesh and the same rays as raylab: the reference of the README's "Benchmarks" (see ARCHITECTURE.md for the parts)
-// and the hit oracle of the benchmark. raylab's own structures never call it.
+// Embree (3 on Debian 12, 4 on Debian 13) on the same mesh and the same rays as raylab: the reference of the README's
+// "Benchmarks" (see ARCHITECTURE.md for the parts) and the hit oracle of the benchmark. raylab's own structures never
+// call it.
 #pragma once
 
 #include "raylab/geometry.h"

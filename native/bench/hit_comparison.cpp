@@ -162,7 +162,8 @@ Agreement classify(const TriangleMesh& mesh, const Ray& ray, const Hit& ours, co
 Comparison compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
                            std::span<const Hit> theirs) {
   Comparison c;
-  for (size_t i = 0; i < rays.size(); ++i) keep(c, classify(mesh, rays[i], ours[i], theirs[i]), rays[i], ours[i], theirs[i]);
+  for (size_t i = 0; i < rays.size(); ++i)
+    keep(c, classify(mesh, rays[i], ours[i], theirs[i]), rays[i], ours[i], theirs[i]);
   return c;
 }
 
@@ -179,8 +180,8 @@ Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std:
     // only touched an edge.
     const Hit& seen = ours[i] ? our_closest[i] : their_closest[i];
     const Agreement kind = !seen.valid() || !near_edge(mesh, rays[i], seen) ? Agreement::Unexplained
-                           : ours[i]                                       ? Agreement::EdgeRay
-                                                                           : Agreement::EdgeRayPassed;
+                           : ours[i]                                        ? Agreement::EdgeRay
+                                                                            : Agreement::EdgeRayPassed;
     keep(c, kind, rays[i], our_closest[i], their_closest[i]);
   }
   return c;

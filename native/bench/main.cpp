@@ -1,7 +1,8 @@
 // raylab_bench: raylab's structures side by side with Embree 3 on one mesh, the same rays, one run.
 // Writes <out>/<name>.json (timings, counts, hit agreement) and the .npy files the Python driver
 // and Blender's BVHTree run use (mesh, a subset of the rays, Embree's hits on them).
-// Usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS|subdivided:LEVELS:FILE.obj --name NAME --out DIR [options]; see --help.
+// Usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS|subdivided:LEVELS:FILE.obj --name NAME --out DIR [options]; see
+// --help.
 #include "embree_tracer.h"
 #include "hit_comparison.h"
 #include "npy.h"
@@ -9,9 +10,9 @@
 #include "raylab/mesh_io.h"
 #include "raylab/structure.h"
 
+#include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <charconv>
@@ -79,7 +80,10 @@ std::optional<std::pair<int, int>> parse_size(const std::string& text) {
 void add_options(CLI::App& app, Options& o) {
   app.option_defaults()->always_capture_default();
   const CLI::Range positive(1, std::numeric_limits<int>::max());
-  app.add_option("--mesh", o.mesh, "an OBJ file, icosphere:LEVELS (20 * 4^LEVELS triangles) or subdivided:LEVELS:FILE (an OBJ file's triangles split in 4^LEVELS)")->required();
+  app.add_option("--mesh", o.mesh,
+                 "an OBJ file, icosphere:LEVELS (20 * 4^LEVELS triangles) or subdivided:LEVELS:FILE (an OBJ file's "
+                 "triangles split in 4^LEVELS)")
+      ->required();
   app.add_option("--name", o.name, "the name of the output files")->required();
   app.add_option("--out", o.out_dir, "the output folder");
   app.add_option_function<std::string>(
@@ -96,9 +100,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--reps", o.reps, "timed repetitions of each query")->check(positive);
   app.add_option("--build-reps", o.build_reps, "timed builds of each structure")->check(positive);
   app.add_option("--rep-seconds", o.rep_seconds, "about how long one repetition traces");
-  app.add_option("--threads", o.threads, "thread counts, comma-separated")
-      ->delimiter(',')
-      ->check(positive);
+  app.add_option("--threads", o.threads, "thread counts, comma-separated")->delimiter(',')->check(positive);
   // The core knows the structures' names: a name it rejects is rejected here, before any work.
   const CLI::Validator structure_name(
       [](std::string& name) {
@@ -150,11 +152,11 @@ void subdivide(TriangleMesh& m, int levels, Place place) {
 TriangleMesh icosphere(int levels) {
   TriangleMesh m;
   const float p = (1.0f + std::sqrt(5.0f)) / 2.0f;
-  m.vertices = {{-1, p, 0}, {1, p, 0}, {-1, -p, 0}, {1, -p, 0}, {0, -1, p}, {0, 1, p},
-                {0, -1, -p}, {0, 1, -p}, {p, 0, -1}, {p, 0, 1}, {-p, 0, -1}, {-p, 0, 1}};
-  m.triangles = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-                 {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  m.vertices = {{-1, p, 0},  {1, p, 0},  {-1, -p, 0}, {1, -p, 0}, {0, -1, p},  {0, 1, p},
+                {0, -1, -p}, {0, 1, -p}, {p, 0, -1},  {p, 0, 1},  {-p, 0, -1}, {-p, 0, 1}};
+  m.triangles = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                 {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (glm::vec3& v : m.vertices) v = glm::normalize(v);
   subdivide(m, levels, [](const glm::vec3& v) { return glm::normalize(v); });
   return m;
@@ -170,7 +172,8 @@ TriangleMesh load(const std::string& spec) {
     const size_t colon = spec.find(':', subdivided.size());
     if (colon == std::string::npos) throw std::invalid_argument("expected subdivided:LEVELS:FILE, got " + spec);
     TriangleMesh m = load_mesh(spec.substr(colon + 1));
-    subdivide(m, std::stoi(spec.substr(subdivided.size(), colon - subdivided.size())), [](const glm::vec3& v) { return v; });
+    subdivide(m, std::stoi(spec.substr(subdivided.size(), colon - subdivided.size())),
+              [](const glm::vec3& v) { return v; });
     return m;
   }
   return load_mesh(spec);
@@ -316,7 +319,8 @@ void trace_runs(std::vector<Contender>& contenders, const std::vector<RaySet>& s
           hits[i].resize(subsets[i].size());
           occluded[i].resize(subsets[i].size());
           work.push_back([&, i] {
-            closest ? contenders[i].tracer.closest(subsets[i], hits[i]) : contenders[i].tracer.any(subsets[i], occluded[i]);
+            closest ? contenders[i].tracer.closest(subsets[i], hits[i])
+                    : contenders[i].tracer.any(subsets[i], occluded[i]);
           });
           work[i]();  // warm-up: caches and lazily started worker threads
         }
@@ -341,8 +345,9 @@ void trace_runs(std::vector<Contender>& contenders, const std::vector<RaySet>& s
     for (size_t i = 0; i < contenders.size(); ++i) {
       const size_t n = subsets[i].size();
       const size_t checked =
-          n == set.rays.size() ? n
-                               : std::min(set.rays.size(), std::max(n, size_t(double(n) / o.rep_seconds * kCheckSeconds)));
+          n == set.rays.size()
+              ? n
+              : std::min(set.rays.size(), std::max(n, size_t(double(n) / o.rep_seconds * kCheckSeconds)));
       contenders[i].per_set[set.name] = contenders[i].extra(set, strided(set.rays, checked));
     }
   }
@@ -380,8 +385,8 @@ void export_for_python(const Options& o, const TriangleMesh& mesh, const std::ve
     embree.closest(subset, hits);
     std::vector<double> rows;  // t, triangle (-1 on miss), u, v
     for (const Hit& h : hits)
-      rows.insert(rows.end(), {h.valid() ? double(h.t) : INFINITY, h.valid() ? double(h.triangle) : -1.0,
-                               double(h.u), double(h.v)});
+      rows.insert(rows.end(), {h.valid() ? double(h.t) : INFINITY, h.valid() ? double(h.triangle) : -1.0, double(h.u),
+                               double(h.v)});
     write_npy(base + ".embree_" + set.name + ".npy", "<f8", {hits.size(), 4}, rows.data(),
               rows.size() * sizeof(double));
   }
@@ -405,9 +410,9 @@ int run(const Options& o) {
   Json tracers = Json::array();
   struct Built {
     std::string name, kind;
-    BuildSettings settings;          // raylab
+    BuildSettings settings;  // raylab
     std::unique_ptr<Structure> structure;
-    RTCBuildQuality quality{};       // Embree
+    RTCBuildQuality quality{};  // Embree
     std::unique_ptr<EmbreeTracer> embree;
   };
   std::vector<Built> built;
@@ -444,9 +449,10 @@ int run(const Options& o) {
   for (Built& b : built) {
     if (b.embree) {
       EmbreeTracer& embree = *b.embree;
-      contenders.push_back({b.name, {[&embree](auto r, auto h) { embree.closest(r, h); },
-                                     [&embree](auto r, auto oc) { embree.any(r, oc); }},
-                            [](const RaySet&, const std::vector<Ray>&) { return Json::object(); }});
+      contenders.push_back(
+          {b.name,
+           {[&embree](auto r, auto h) { embree.closest(r, h); }, [&embree](auto r, auto oc) { embree.any(r, oc); }},
+           [](const RaySet&, const std::vector<Ray>&) { return Json::object(); }});
       continue;
     }
     const Structure& s = *b.structure;
@@ -463,19 +469,21 @@ int run(const Options& o) {
                    {{"closest", comparison_json(*mesh, compare_closest(*mesh, rays, ours, theirs))},
                     {"any", comparison_json(*mesh, compare_any(*mesh, rays, our_any, their_any, ours, theirs))}}}};
     };
-    contenders.push_back({b.name, {[&s](auto r, auto h) { intersect_closest(s, r, h, nullptr); },
-                                   [&s](auto r, auto oc) { intersect_any(s, r, oc, nullptr); }},
+    contenders.push_back({b.name,
+                          {[&s](auto r, auto h) { intersect_closest(s, r, h, nullptr); },
+                           [&s](auto r, auto oc) { intersect_any(s, r, oc, nullptr); }},
                           counts_and_agreement});
   }
   trace_runs(contenders, sets, o);
   for (size_t i = 0; i < built.size(); ++i) {
     const Built& b = built[i];
-    tracers.push_back({{"name", b.name},
-                       {"kind", b.kind},
-                       {"error", nullptr},
-                       {"build", build_times[i]},
-                       {"memory_bytes", b.embree ? b.embree->memory_bytes() : b.structure->memory_bytes()},
-                       {"tracing", {{"runs", std::move(contenders[i].runs)}, {"per_ray_set", std::move(contenders[i].per_set)}}}});
+    tracers.push_back(
+        {{"name", b.name},
+         {"kind", b.kind},
+         {"error", nullptr},
+         {"build", build_times[i]},
+         {"memory_bytes", b.embree ? b.embree->memory_bytes() : b.structure->memory_bytes()},
+         {"tracing", {{"runs", std::move(contenders[i].runs)}, {"per_ray_set", std::move(contenders[i].per_set)}}}});
   }
 
   export_for_python(o, *mesh, sets, oracle);

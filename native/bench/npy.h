@@ -11,8 +11,8 @@
 namespace raylab::bench {
 
 // `descr` is the NumPy type string, e.g. "<f4"; data is C-ordered with the given shape.
-inline void write_npy(const std::string& path, const char* descr, const std::vector<size_t>& shape,
-                      const void* data, size_t bytes) {
+inline void write_npy(const std::string& path, const char* descr, const std::vector<size_t>& shape, const void* data,
+                      size_t bytes) {
   std::string dims;
   for (size_t d : shape) dims += std::to_string(d) + ", ";
   std::string header = "{'descr': '" + std::string(descr) + "', 'fortran_order': False, 'shape': (" + dims + "), }";

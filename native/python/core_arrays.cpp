@@ -35,8 +35,8 @@ FloatRows float_rows(py::handle obj, const char* what, bool single_row_ok) {
   const bool rows = a.ndim() == 2 && a.shape(1) == 3;
   const bool single = single_row_ok && a.ndim() == 1 && a.shape(0) == 3;
   if (!rows && !single)
-    throw std::invalid_argument(std::string(what) + " must have shape (N, 3)" +
-                                (single_row_ok ? " or (3,)" : "") + ", got " + shape_text(a));
+    throw std::invalid_argument(std::string(what) + " must have shape (N, 3)" + (single_row_ok ? " or (3,)" : "") +
+                                ", got " + shape_text(a));
   const char k = dtype_kind(a);
   if (k != 'f' && k != 'i' && k != 'u')
     throw std::invalid_argument(std::string(what) + " must have a real number dtype (float32 preferred), got " +
@@ -74,8 +74,8 @@ void check_ray_row(const float* p, size_t ray, const char* what) {
 void check_interval(double tmin, double tmax) {
   if (std::isnan(tmin) || std::isnan(tmax)) throw std::invalid_argument("tmin and tmax must not be NaN");
   if (tmin > tmax)
-    throw std::invalid_argument("tmin (" + std::to_string(tmin) + ") is greater than tmax (" +
-                                std::to_string(tmax) + ")");
+    throw std::invalid_argument("tmin (" + std::to_string(tmin) + ") is greater than tmax (" + std::to_string(tmax) +
+                                ")");
 }
 
 Ray make_ray(const float* o, const float* d, size_t index, double tmin, double tmax) {
@@ -133,7 +133,7 @@ std::string names_of(const Table& table) {
   return out;
 }
 
-// "auto" or a whole number >= 0 (the upper limit is validate()'s): BuildSettings::max_depth.
+// "auto" or a whole number: BuildSettings::max_depth (its range is validate()'s).
 int max_depth_parameter(py::handle value) {
   const std::string accepted = "'" + std::string(BuildSettings::kAutoDepthName) + "' or an integer";
   if (py::isinstance<py::str>(value)) {
@@ -142,9 +142,7 @@ int max_depth_parameter(py::handle value) {
   }
   const int depth = int32_parameter(value, "max_depth");
   // -1 is kAutoDepth inside; from Python only the name means auto.
-  if (depth < 0)
-    throw std::invalid_argument("max_depth must be >= 0 or '" + std::string(BuildSettings::kAutoDepthName) +
-                                "', got " + std::to_string(depth));
+  if (depth == BuildSettings::kAutoDepth) BuildSettings::refuse_negative_depth(depth);
   return depth;
 }
 
@@ -159,8 +157,7 @@ BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth
   s.leaf_size = int32_parameter(leaf_size, "leaf_size");
   s.triangle_test = triangle_test_from_name(str_parameter(triangle_test_name, "triangle_test", tests.c_str()));
   if (!memory_budget.is_none()) s.memory_budget = memory_budget_parameter(memory_budget, "memory_budget", true);
-  s.validate();
-  return s;
+  return s;  // validated where it enters the core: build_structure, the Scene
 }
 
 std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py::handle tmin_value,

@@ -28,8 +28,9 @@ MeshPtr mesh_from_arrays(py::handle vertices, py::handle triangles);
 // (V,3) real vertices as points (converted to float32; their values are checked by whoever uses them).
 std::vector<glm::vec3> vertices_from_array(py::handle vertices);
 
-// The keywords every build takes, as any Python objects -> validated settings (a wrong type,
-// unknown name or bad value raises a ValueError naming the keyword).
+// The keywords every build takes, as any Python objects -> settings (a wrong type or unknown name
+// raises a ValueError naming the keyword; the values' ranges are BuildSettings::validate()'s, called
+// where the settings enter the core).
 // The build settings as keyword arguments with BuildSettings' own defaults, for every binding that
 // takes them (build, build_file, Scene, Scene.set_settings): `def(f, leading args..., settings...)`.
 // max_depth as Python sees it: "auto" or a whole number.
@@ -41,8 +42,7 @@ inline py::object max_depth_object(int max_depth) {
 inline auto settings_keywords() {
   const BuildSettings d;
   return std::make_tuple(py::arg("structure") = structure_kind_name(d.kind),
-                         py::arg("max_depth") = max_depth_object(d.max_depth),
-                         py::arg("leaf_size") = d.leaf_size,
+                         py::arg("max_depth") = max_depth_object(d.max_depth), py::arg("leaf_size") = d.leaf_size,
                          py::arg("triangle_test") = triangle_test_name(d.triangle_test),
                          py::arg("memory_budget") = py::none());
 }
@@ -105,8 +105,6 @@ py::dict story_to_dict(const RayStory& story);
 py::dict scene_story_to_dict(const SceneStory& story, const SceneSnapshot& scene);
 py::dict statuses_to_dict(const std::vector<Hit>& hits, const std::vector<RayStatus>& statuses, bool single_instance);
 
-
-
 // A batch query: rays from the arrays, `trace(rays, results, stats, threads, per_ray)` with the GIL
 // released while the cores trace, then the results as a dict of arrays plus "stats" (the totals, None
 // unless `count` or `per_ray`) and "per_ray" (each ray's counters, None unless `per_ray`).
@@ -145,8 +143,8 @@ py::dict intersect_rays(const Target& target, py::handle origins, py::handle dir
 
 // Closest hits with each ray's status: `trace(rays, hits, statuses)` is a structure's or a scene's.
 template <class Trace>
-py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax,
-                       py::handle threads, bool single_instance, Trace trace) {
+py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax, py::handle threads,
+                       bool single_instance, Trace trace) {
   std::vector<RayStatus> statuses;
   return trace_arrays<Hit>(
       origins, directions, tmin, tmax, py::bool_(false), py::bool_(false), threads,

@@ -4,13 +4,13 @@
 #include "core_arrays.h"
 
 #include "raylab/box_lines.h"
-#include "raylab/bvh.h"
 #include "raylab/mesh_io.h"
 #include "raylab/refit.h"
 #include "raylab/structure.h"
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 
 namespace raylab::python {
 
@@ -53,7 +53,8 @@ py::tuple mesh_to_arrays(const TriangleMesh& mesh) {
 // (P,4) real RGBA rows (or one (4,) row) -> the palette of box_lines; ValueError naming `palette`.
 std::vector<glm::vec4> palette_parameter(py::handle value) {
   const auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(value);
-  const bool shaped = a && ((a.ndim() == 2 && a.shape(1) == 4 && a.shape(0) >= 1) || (a.ndim() == 1 && a.shape(0) == 4));
+  const bool shaped =
+      a && ((a.ndim() == 2 && a.shape(1) == 4 && a.shape(0) >= 1) || (a.ndim() == 1 && a.shape(0) == 4));
   if (!shaped) throw py::value_error("palette must be RGBA rows, (P,4) with P >= 1 or (4,), got " + describe(value));
   std::vector<glm::vec4> palette(size_t(a.size() / 4));
   std::copy_n(a.data(), a.size(), reinterpret_cast<float*>(palette.data()));
@@ -95,14 +96,15 @@ py::dict box_lines_dict(const std::vector<BoxInfo>& b, py::handle depth_min, py:
   return d;
 }
 
-py::dict boxes(const Structure& s, py::handle lines, py::handle depth_min, py::handle depth_max,
-               py::handle leaves_only, py::handle palette, py::handle fade, py::handle alpha_scale) {
+py::dict boxes(const Structure& s, py::handle lines, py::handle depth_min, py::handle depth_max, py::handle leaves_only,
+               py::handle palette, py::handle fade, py::handle alpha_scale) {
   std::vector<BoxInfo> b;
   {
     py::gil_scoped_release release;
     b = s.boxes();
   }
-  if (bool_parameter(lines, "lines")) return box_lines_dict(b, depth_min, depth_max, leaves_only, palette, fade, alpha_scale);
+  if (bool_parameter(lines, "lines"))
+    return box_lines_dict(b, depth_min, depth_max, leaves_only, palette, fade, alpha_scale);
   py::dict d;
   put_bounds(d, b);
   d["depth"] = column<int32_t>(b, [](const BoxInfo& x) { return x.depth; });
@@ -136,9 +138,8 @@ void bind_core(py::module_& m) {
   py::register_exception<BuildError>(m, "BuildError", PyExc_RuntimeError);
 
   m.def(
-      "load_mesh",
-      [](py::handle path) { return mesh_to_arrays(read_mesh_file(path_parameter(path, "path"))); }, py::arg("path"),
-      "Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles).");
+      "load_mesh", [](py::handle path) { return mesh_to_arrays(read_mesh_file(path_parameter(path, "path"))); },
+      py::arg("path"), "Reads an OBJ file: ((V,3) float32 vertices, (T,3) uint32 triangles).");
 
   py::class_<Structure, StructurePtr>(m, "Structure", "An acceleration structure over one mesh (keeps it alive).")
       .def_property_readonly("structure", [](const Structure& s) { return structure_kind_name(s.kind()); })
@@ -150,8 +151,9 @@ void bind_core(py::module_& m) {
       .def_property_readonly("leaf_size", [](const Structure& s) { return s.settings().leaf_size; })
       .def_property_readonly("triangle_test",
                              [](const Structure& s) { return triangle_test_name(s.settings().triangle_test); })
-      .def_property_readonly("mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
-                             "A copy of the mesh: (vertices, triangles).")
+      .def_property_readonly(
+          "mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
+          "A copy of the mesh: (vertices, triangles).")
       .def("intersect", &intersect_rays<Structure>, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("count") = false, py::arg("per_ray") = false,
            py::arg("threads") = py::none())
@@ -169,16 +171,15 @@ void bind_core(py::module_& m) {
       .def_property_readonly("refitted", &Structure::refitted)
       .def("sah_cost",
            [](const Structure& s) -> py::object {
-             const auto* bvh = dynamic_cast<const Bvh*>(&s);
-             return bvh ? py::object(py::float_(bvh->sah_cost())) : py::object(py::none());
+             const std::optional<double> cost = structure_sah_cost(s);
+             return cost ? py::object(py::float_(*cost)) : py::object(py::none());
            })
       .def("boxes", &boxes, py::arg("lines") = false, py::arg("depth_min") = 0, py::arg("depth_max") = py::none(),
            py::arg("leaves_only") = false, py::arg("palette") = py::none(), py::arg("fade") = false,
            py::arg("alpha_scale") = 1.0)
       .def("statuses", &statuses, py::arg("origins"), py::arg("directions"), py::arg("tmin") = 0.0,
            py::arg("tmax") = kNoLimit, py::arg("threads") = py::none())
-      .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0,
-           py::arg("tmax") = kNoLimit);
+      .def("story", &story, py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0, py::arg("tmax") = kNoLimit);
 
   with_settings_keywords(
       [&](auto... keywords) {

@@ -58,8 +58,7 @@ std::string describe(py::handle value) {
   return std::string("a value of type ") + Py_TYPE(p)->tp_name;
 }
 
-int64_t integer_parameter(py::handle value, const std::string& name, int64_t lo, int64_t hi,
-                          const char* accepted) {
+int64_t integer_parameter(py::handle value, const std::string& name, int64_t lo, int64_t hi, const char* accepted) {
   const std::string expected =
       accepted ? std::string(accepted) : "an integer from " + std::to_string(lo) + " to " + std::to_string(hi);
   const py::object index = as_index(value);
@@ -69,8 +68,8 @@ int64_t integer_parameter(py::handle value, const std::string& name, int64_t lo,
 }
 
 int int32_parameter(py::handle value, const std::string& name) {
-  return int(integer_parameter(value, name, std::numeric_limits<int32_t>::min(),
-                               std::numeric_limits<int32_t>::max(), "an integer that fits in 32 bits"));
+  return int(integer_parameter(value, name, std::numeric_limits<int32_t>::min(), std::numeric_limits<int32_t>::max(),
+                               "an integer that fits in 32 bits"));
 }
 
 int threads_parameter(py::handle value) {

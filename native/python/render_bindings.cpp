@@ -117,6 +117,7 @@ class Fields {
     for (size_t i = 0; i < N; ++i) names[i] = table[i].name;
     return table[choice(key, names, int(&fallback - table))];
   }
+  bool has(const char* key) const { return dict_.contains(key); }
   // Call after reading every key.
   void finish() const {
     if (!unused_.empty()) value_error(what_ + " has an unknown key '" + *unused_.begin() + "'");
@@ -228,7 +229,10 @@ RenderSettings settings_from_dict(py::handle object) {
   if (object.is_none()) return s;
   Fields f(object, "settings");
   s.super_sampling = f.integer("super_sampling", s.super_sampling);
-  s.max_depth = f.integer("max_depth", s.max_depth);
+  s.max_recursion = f.integer("max_recursion", s.max_recursion);
+  // The recursion depth was called max_depth, the octree's build setting's name.
+  if (f.has("max_depth"))
+    value_error("settings: max_depth is now max_recursion (the octree's max_depth is a build setting)");
   s.shadows = f.boolean("shadows", s.shadows);
   s.background = f.color("background", s.background);
   s.ambient = f.color("ambient", s.ambient);
@@ -313,7 +317,8 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   {
     // Checked here, before anything is allocated: the result's numpy copies (image, instance,
     // distance) and its cost arrays (one float per counter, made when read) live beside its buffers.
-    constexpr size_t copies = 4 * sizeof(float) + sizeof(int32_t) + sizeof(float) + std::size(kCounters) * sizeof(float);
+    constexpr size_t copies =
+        4 * sizeof(float) + sizeof(int32_t) + sizeof(float) + std::size(kCounters) * sizeof(float);
     const Camera view(camera);
     try {
       require_render_memory(view.width(), view.height(), settings, copies);
@@ -380,9 +385,13 @@ PyRenderResult render_from_python(py::handle scene_object, py::handle camera_dic
   if (failure) std::rethrow_exception(failure);
 
   const py::ssize_t h = result.height, w = result.width;
-  PyRenderResult out{to_array(result.image, {h, w, 4}), result.cancelled, stats_dict(result.stats),
-                     to_array(result.instance, {h, w}), to_array(result.distance, {h, w}),
-                     std::move(result.pixel_work), py::none()};
+  PyRenderResult out{to_array(result.image, {h, w, 4}),
+                     result.cancelled,
+                     stats_dict(result.stats),
+                     to_array(result.instance, {h, w}),
+                     to_array(result.distance, {h, w}),
+                     std::move(result.pixel_work),
+                     py::none()};
   if (out.stats["structure"].cast<std::string>().empty() && py::hasattr(scene_object, "structure"))
     out.stats["structure"] = py::str(scene_object.attr("structure"));
   return out;
@@ -446,7 +455,7 @@ void bind_render(py::module_& m) {
   m.def("render", &render_from_python, py::arg("scene"), py::arg("camera"), py::arg("lights"), py::arg("materials"),
         py::arg("settings") = py::none(), py::arg("progress") = py::none(),
         "Renders a committed raylab.Scene; progress(fraction) is called several times a second and "
-        "cancels the render by returning True. settings (all optional): super_sampling (1-4), max_depth, "
+        "cancels the render by returning True. settings (all optional): super_sampling (1-4), max_recursion (0-64), "
         "shadows, background, ambient, robust_offset, fixed_epsilon, shadow_terminator, threads, tile_size, "
         "cost_rays (one of COST_RAYS: which of a pixel's rays its result.cost counts), memory_budget (bytes "
         "the render's buffers and the result's arrays may take; resolutions beyond it are refused).");

@@ -6,11 +6,11 @@
 #include "core_arrays.h"
 
 #include "raylab/cost_passes.h"
-#include "raylab/bvh_simd.h"
 #include "raylab/scene.h"
 #include "raylab/structure.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
+#include "raylab/triangle_packets.h"
 
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -18,8 +18,8 @@
 #include <iterator>
 #include <span>
 #include <string>
-#include <vector>
 #include <utility>
+#include <vector>
 
 namespace py = pybind11;
 
@@ -48,11 +48,10 @@ py::tuple table(std::span<const Row> rows, std::pair<const char*, Members Row::*
 
 void bind_vocabulary(py::module_& m) {
   using S = StructureInfo;
-  m.attr("STRUCTURES") =
-      table(structure_kinds(), field("name", &S::name), field("label", &S::label),
-            field("description", &S::description), field("root_name", &S::root_name),
-            field("uses_max_depth", &S::uses_max_depth), field("uses_leaf_size", &S::uses_leaf_size),
-            field("uses_top_level", &S::uses_top_level), field("has_boxes", &S::has_boxes));
+  m.attr("STRUCTURES") = table(structure_kinds(), field("name", &S::name), field("label", &S::label),
+                               field("description", &S::description), field("root_name", &S::root_name),
+                               field("uses_max_depth", &S::uses_max_depth), field("uses_leaf_size", &S::uses_leaf_size),
+                               field("uses_top_level", &S::uses_top_level), field("has_boxes", &S::has_boxes));
   // Whether refit keeps the topology (else it rebuilds): StructureInfo::refit is a function, not a field.
   for (size_t i = 0; i < structure_kinds().size(); ++i)
     m.attr("STRUCTURES")[py::int_(i)]["refits"] = structure_kinds()[i].refit != nullptr;
@@ -70,7 +69,8 @@ void bind_vocabulary(py::module_& m) {
   m.attr("COST_RAYS") = table(std::span<const R>(kCostRays), field("name", &R::name), field("label", &R::label),
                               field("description", &R::description));
 
-  m.attr("RAY_STATUSES") = py::tuple(py::cast(std::vector<std::string>(std::begin(kRayStatusNames), std::end(kRayStatusNames))));
+  m.attr("RAY_STATUSES") =
+      py::tuple(py::cast(std::vector<std::string>(std::begin(kRayStatusNames), std::end(kRayStatusNames))));
 
   const BuildSettings defaults;
   py::dict d;

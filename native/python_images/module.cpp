@@ -21,7 +21,8 @@ void write_image_from_python(py::handle path_object, py::handle image_object) {
   const std::string path = py::module_::import("os").attr("fspath")(path_object).cast<std::string>();
   py::array_t<float, py::array::c_style | py::array::forcecast> image;
   try {
-    image = py::array_t<float, py::array::c_style | py::array::forcecast>(py::reinterpret_borrow<py::object>(image_object));
+    image =
+        py::array_t<float, py::array::c_style | py::array::forcecast>(py::reinterpret_borrow<py::object>(image_object));
   } catch (const py::error_already_set&) {
     value_error("image must be an array of numbers");
   }

@@ -1,4 +1,4 @@
-#include "raylab/bvh.h"
+#include "bvh.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -18,9 +18,8 @@ BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& se
   // half as many as 4-wide ones and twice the size).
   const size_t needed = binary_bvh_build_bytes(n) + 2 * n * sizeof(TrianglePacket) / 4 + n * sizeof(Bvh4Node) / 2;
   if (needed > settings.memory_budget)
-    throw BuildError("bvh: building over " + std::to_string(n) + " triangles needs about " +
-                     std::to_string(needed) + " bytes, over the memory budget of " +
-                     std::to_string(settings.memory_budget));
+    throw BuildError("bvh: building over " + std::to_string(n) + " triangles needs about " + std::to_string(needed) +
+                     " bytes, over the memory budget of " + std::to_string(settings.memory_budget));
   const auto bounds_of = [&mesh](uint32_t begin, uint32_t end, Bounds* out) {
     for (uint32_t i = begin; i < end; ++i) out[i - begin] = mesh.triangle_bounds(i);
   };
@@ -47,8 +46,6 @@ struct Leaf {
 // Collapses a binary BVH into a W-wide one: each wide node takes the binary node's children and
 // keeps opening its largest inner child (by surface area, the likeliest to be entered) until it has
 // W. Leaves only get their packet range here; fill_packets writes them afterwards, in parallel.
-// Reserving leaves_ for the binary tree's (k + 1) / 2 leaves (no growth copies) measured 0.99-1.02x
-// the build time (icosphere:8, dragon 1.6M, one thread, minimum of 3 x 9 builds): not kept.
 template <int W>
 class Collapser {
  public:
@@ -118,8 +115,7 @@ class Collapser {
 };
 
 // Copies each leaf's triangles into its packets; unused lanes repeat the packet's first triangle.
-void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf,
-                  TrianglePacket* packets) {
+void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf, TrianglePacket* packets) {
   for (uint32_t p = 0; p < leaf.count; p += 4) {
     TrianglePacket& packet = packets[leaf.first_packet + p / 4];
     for (uint32_t lane = 0; lane < 4; ++lane) {
@@ -144,10 +140,8 @@ int chosen_width(int width) {
 }
 
 // Collapses `binary` into `nodes` and writes the leaves' packets; returns each leaf's first packet.
-// The collapse itself runs in one thread: 22-28 ms of about 750 on the 1.6M dragon (one thread).
-// Collapsing the subtrees of under 16,384 triangles in parallel parts, placed after a serial top,
-// took 0.93-1.26 of this one's time relative to Embree's on two threads (dragon at 1.6M,
-// icosphere:8, dragon, bunny_hr; medians of 9, two rounds): within the noise, so not kept.
+// The collapse itself runs in one thread (a few percent of a build; parallel parts were no faster:
+// docs/bench/history.md).
 template <int W>
 std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary,
                                     std::vector<BvhWideNode<W>>& nodes, HugeArray<TrianglePacket>& packets,
@@ -169,8 +163,8 @@ std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& b
 
 // The boxes of a wide tree; ids as Bvh::boxes says.
 template <int W>
-std::vector<BoxInfo> wide_boxes(const Bounds& root, const std::vector<BvhWideNode<W>>& nodes,
-                                size_t leaf_count, const std::function<uint32_t(uint32_t)>& leaf_id) {
+std::vector<BoxInfo> wide_boxes(const Bounds& root, const std::vector<BvhWideNode<W>>& nodes, size_t leaf_count,
+                                const std::function<uint32_t(uint32_t)>& leaf_id) {
   std::vector<BoxInfo> out(nodes.size() + leaf_count);
   if (nodes.empty()) return out;
   out[0] = {root, 0, false, 0};
@@ -213,8 +207,7 @@ std::vector<BoxInfo> Bvh::boxes() const {
 
 size_t Bvh::memory_bytes() const {
   return nodes4_.capacity() * sizeof(Bvh4Node) + nodes8_.capacity() * sizeof(Bvh8Node) +
-         packet_count_ * sizeof(TrianglePacket) +
-         leaf_packets_.capacity() * sizeof(uint32_t);
+         packet_count_ * sizeof(TrianglePacket) + leaf_packets_.capacity() * sizeof(uint32_t);
 }
 
 std::unique_ptr<Structure> build_bvh(MeshPtr mesh, const BuildSettings& settings) {

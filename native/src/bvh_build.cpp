@@ -7,7 +7,6 @@
 #include <tbb/task_group.h>
 
 #include <immintrin.h>
-#include <sys/mman.h>
 
 #include <algorithm>
 #include <bit>
@@ -69,10 +68,8 @@ struct PrimRef {
 // Asks for the reference `ahead` places after r (before it if negative) in the cache: the scans over
 // nodes larger than the caches wait on memory otherwise (this machine's hardware prefetch does not
 // keep up). A prefetch never faults, so the address may lie outside the array; it is computed as an
-// integer, so that it need not be a valid pointer. Build time, one thread, minimum of 3 x 9 builds:
-// prefetching in the binning 0.91x (icosphere:8) and 0.92x (dragon 1.6M), 1.00x on dragon and
-// bunny_hr (their references fit the cache); in the partition's scans too, another 0.98-1.00x.
-// 16 ahead: 8 and 32 measured within 1% of it.
+// integer, so that it need not be a valid pointer. It pays on meshes whose references pass the cache;
+// 16 ahead (8 and 32 within 1 %).
 inline void prefetch_ref(const PrimRef* r, ptrdiff_t ahead) {
   _mm_prefetch(reinterpret_cast<const char*>(reinterpret_cast<uintptr_t>(r) + ahead * ptrdiff_t(sizeof(PrimRef))),
                _MM_HINT_T0);
@@ -143,7 +140,6 @@ struct Binning {
       s[a] = usable[a] ? axis_scale : 0.0f;
     }
     scale = _mm_load_ps(s);
-
   }
   // Per lane, the bin before clamping to [0, kBins - 1].
   __m128i raw_bins(const PrimRef& r) const {
@@ -153,11 +149,8 @@ struct Binning {
     return _mm_min_epi32(_mm_max_epi32(raw_bins(r), _mm_setzero_si128()), _mm_set1_epi32(kBins - 1));
   }
   // Per lane, all ones where bins_of(r) < split, for splits in [1, kBins - 1]: without the clamp,
-  // which cannot change the comparison there (the partition's test: CPU time of 5 builds 0.96-0.98x
-  // with the clamp, icosphere:8 and dragon 1.6M, medians of 5).
-  __m128i below(const PrimRef& r, __m128i split) const {
-    return _mm_cmplt_epi32(raw_bins(r), split);
-  }
+  // which cannot change the comparison there (the partition's test; the clamp cost measurably).
+  __m128i below(const PrimRef& r, __m128i split) const { return _mm_cmplt_epi32(raw_bins(r), split); }
 };
 
 // Reduces body(begin, end) over a range, starting from `identity`, in parallel when it is large.
@@ -305,12 +298,10 @@ class Builder {
     const Binning binning(info.centroids);
     const bool can_bin = binning.usable[0] || binning.usable[1] || binning.usable[2];
     // Identical centroids (e.g. all triangles the same) or a runaway depth: SAH cannot help.
-    if (!can_bin || depth >= kMaxSahDepth) return n <= max_leaf_size_ ? begin : median(begin, end, left_info, right_info);
+    if (!can_bin || depth >= kMaxSahDepth)
+      return n <= max_leaf_size_ ? begin : median(begin, end, left_info, right_info);
     if (n <= kObjectSweepMax) return sweep_objects(info, begin, end, left_info, right_info);
 
-    // Binning even and odd primitives into two sets of bins, merged after (neighbours often share a
-    // bin, and each update waits for the last one's store), measured 1.00-1.03x the build time (dragon
-    // 1.6M, one core, medians of 5 interleaved runs of 5 builds, nodes from 64 or 256 primitives): not kept.
     const Bins bins = reduce_range(begin, end, Bins(), [&](uint32_t b, uint32_t e) {
       Bins r;
       alignas(16) int32_t index[4];
@@ -355,8 +346,8 @@ class Builder {
         y.extend(bins.box[i - 1][1]);
         z.extend(bins.box[i - 1][2]);
         count = _mm_add_epi32(count, bins.counts(i - 1));
-        const __m128 cost = _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), blocks(count)),
-                                       _mm_mul_ps(right_area[i], right_blocks[i]));
+        const __m128 cost =
+            _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), blocks(count)), _mm_mul_ps(right_area[i], right_blocks[i]));
         // Both sides non-empty (else the cost is inf * 0) and strictly better: the lowest split wins ties.
         const __m128i empty = _mm_or_si128(_mm_cmpeq_epi32(count, zero), _mm_cmpeq_epi32(right_count[i], zero));
         const __m128 better = _mm_andnot_ps(_mm_castsi128_ps(empty), _mm_cmplt_ps(cost, best_cost));
@@ -387,12 +378,8 @@ class Builder {
   // bins counted) before the others and returns where the others start, gathering each side's
   // centroid bounds on the way. The order is a Hoare partition's: the k-th primitive bound right
   // from the left part swaps with the k-th bound left from the right part (counting from the ends
-  // inwards). Here the scans find them a block at a time without a branch per primitive. Build time
-  // over Embree medium's, one thread, 2 runs of 9 interleaved builds (a busy machine), Hoare's loop
-  // -> this: goathead 0.72-0.76 -> 0.61-0.67, bunny_hr 0.73-0.80 -> 0.68-0.78, dragon 0.78-0.80 ->
-  // 0.60-0.64, icosphere:8 0.86-0.90 -> 0.84-0.86, dragon 1.6M 0.75-0.86 -> 0.73-0.74; CPU time of
-  // 5 builds 0.92x (icosphere:8) and 0.89x (dragon 1.6M). Hoare's loop with its bounds in locals
-  // alone measured 0.98-0.99x.
+  // inwards). Here the scans find them a block at a time without a branch per primitive, a faster build
+  // on every mesh measured (docs/bench/history.md).
   uint32_t partition(const Binning& binning, int axis, int split_bin, uint32_t begin, uint32_t end, uint32_t left_count,
                      Box& left_centroids, Box& right_centroids) {
     constexpr uint32_t kBlock = 64;
@@ -436,7 +423,8 @@ class Builder {
         scanned = true;
       }
       const uint32_t swaps = std::min(count_left - first_left, count_right - first_right);
-      for (uint32_t k = 0; k < swaps; ++k) std::swap(refs[misplaced_left[first_left + k]], refs[misplaced_right[first_right + k]]);
+      for (uint32_t k = 0; k < swaps; ++k)
+        std::swap(refs[misplaced_left[first_left + k]], refs[misplaced_right[first_right + k]]);
       first_left += swaps;
       first_right += swaps;
       if (!scanned && swaps == 0) break;  // unreachable while left_count is the bins' count
@@ -454,10 +442,8 @@ class Builder {
 
   // order[a] lists refs_[begin, begin + n) (n <= kObjectSweepMax) by centroid along axis a, equal
   // keys by position (a stable sort's order). Each primitive's place is its rank, counted for the
-  // three axes at once without a branch. The insertion sort it replaces (the same order) was a fifth
-  // of the build, in mispredicted compares: build time over Embree medium's, one thread, 2 runs of 9
-  // interleaved builds, before -> after: goathead 0.96-0.98 -> 0.75-0.77, bunny_hr 0.95-0.97 ->
-  // 0.74-0.78, dragon 0.96 -> 0.77-0.80, icosphere:8 1.01-1.08 -> 0.90-0.92, dragon 1.6M 1.00-1.04 -> 0.84-0.88.
+  // three axes at once without a branch. The insertion sort it replaces (the same order) was a fifth of
+  // the build, in mispredicted compares.
   void sort_centroids(uint32_t begin, uint32_t n, uint8_t (&order)[3][kObjectSweepMax]) const {
     // Keys as integers ordered as the floats are (+0 for -0, so that the two stay equal): a total
     // order, so that even NaN keys give a permutation.
@@ -508,8 +494,7 @@ class Builder {
         x.extend(ref(0, i - 1).lo, ref(0, i - 1).hi);
         y.extend(ref(1, i - 1).lo, ref(1, i - 1).hi);
         z.extend(ref(2, i - 1).lo, ref(2, i - 1).hi);
-        const __m128 cost =
-            _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), _mm_set1_ps(float(blocks(i)))), right_cost[i]);
+        const __m128 cost = _mm_add_ps(_mm_mul_ps(half_areas(x, y, z), _mm_set1_ps(float(blocks(i)))), right_cost[i]);
         const __m128 better = _mm_cmplt_ps(cost, best_cost);  // the lowest split wins ties
         best_cost = _mm_blendv_ps(best_cost, cost, better);
         best_split = _mm_blendv_epi8(best_split, _mm_set1_epi32(int32_t(i)), _mm_castps_si128(better));
@@ -542,9 +527,7 @@ class Builder {
   }
 
   // Blocks of leaf_block_ primitives (a power of two): per lane, and for one count.
-  __m128 blocks(__m128i n) const {
-    return _mm_cvtepi32_ps(_mm_srl_epi32(_mm_add_epi32(n, leaf_round_), leaf_shift_));
-  }
+  __m128 blocks(__m128i n) const { return _mm_cvtepi32_ps(_mm_srl_epi32(_mm_add_epi32(n, leaf_round_), leaf_shift_)); }
   uint32_t blocks(uint32_t n) const { return (n + leaf_block_ - 1) >> std::countr_zero(leaf_block_); }
 
   static float half_area(const Box& b) {
@@ -556,7 +539,7 @@ class Builder {
 
   HugeArray<PrimRef>& refs_;
   HugeArray<BvhNode> slots_;
-  HugeArray<uint32_t> left_nodes_;  // an inner slot's left subtree node count
+  HugeArray<uint32_t> left_nodes_;     // an inner slot's left subtree node count
   HugeArray<const LocalTree*> local_;  // a slot's LocalTree, or null
   tbb::concurrent_vector<LocalTree> locals_;
   uint32_t max_leaf_size_;
@@ -566,21 +549,6 @@ class Builder {
 
 }  // namespace
 
-void* allocate_huge(size_t bytes) {
-  constexpr size_t kHugePage = size_t(2) << 20;
-  if (bytes < kHugePage) {
-    void* p = std::malloc(std::max<size_t>(bytes, 1));
-    if (!p) throw std::bad_alloc();
-    return p;
-  }
-  const size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
-  void* p = std::aligned_alloc(kHugePage, rounded);
-  if (!p) throw std::bad_alloc();
-  madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure just means small pages
-  return p;
-}
-
-
 size_t binary_bvh_build_bytes(size_t n) {
   // References, the local trees (at most 2n nodes), the compacted nodes (at most 2n) and the
   // primitive order; the slot arrays are mostly never touched.
@@ -589,7 +557,7 @@ size_t binary_bvh_build_bytes(size_t n) {
 
 namespace {
 
-constexpr uint32_t kRefGrain = 1024;              // primitives per task when making references
+constexpr uint32_t kRefGrain = 1024;  // primitives per task when making references
 
 }  // namespace
 
@@ -600,8 +568,7 @@ BinaryBvh build_binary_bvh(std::span<const Bounds> prim_bounds, uint32_t max_lea
       max_leaf_size, leaf_block);
 }
 
-BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32_t max_leaf_size,
-                           uint32_t leaf_block) {
+BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32_t max_leaf_size, uint32_t leaf_block) {
   if (!std::has_single_bit(leaf_block))
     throw std::invalid_argument("build_binary_bvh: leaf_block must be a power of two");
   BinaryBvh bvh;

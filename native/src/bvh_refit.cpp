@@ -1,5 +1,5 @@
 // The BVH's refit and its SAH cost (refit.h says what a refit is and when it pays).
-#include "raylab/bvh.h"
+#include "bvh.h"
 #include "raylab/refit.h"
 
 #include <tbb/blocked_range.h>
@@ -87,8 +87,8 @@ double wide_sah_cost(const std::vector<BvhWideNode<W>>& nodes, const Bounds& roo
     for (int i = 0; i < W; ++i) {
       if (!node.used(i)) continue;
       const double weight = root > 0.0 ? node.bounds(i).surface_area() / root : 1.0;
-      sum += weight * (node.leaf(i) ? double((node.count[i] + kPacketLanes - 1) / kPacketLanes)
-                                    : double(kSahTraversalCost));
+      sum += weight *
+             (node.leaf(i) ? double((node.count[i] + kPacketLanes - 1) / kPacketLanes) : double(kSahTraversalCost));
     }
   return sum;
 }
@@ -111,6 +111,11 @@ Bvh::Bvh(const Bvh& source, MeshPtr moved)
 
 double Bvh::sah_cost() const {
   return width_ == 8 ? wide_sah_cost(nodes8_, root_bounds_) : wide_sah_cost(nodes4_, root_bounds_);
+}
+
+std::optional<double> structure_sah_cost(const Structure& s) {
+  const auto* bvh = dynamic_cast<const Bvh*>(&s);
+  return bvh ? std::optional<double>(bvh->sah_cost()) : std::nullopt;
 }
 
 std::unique_ptr<Structure> refit_bvh(const Structure& source, MeshPtr moved) {

@@ -32,8 +32,8 @@ void TriangleMesh::validate() const {
     for (int c = 0; c < 3; ++c)
       if (triangles[i][c] >= n)
         throw std::invalid_argument("triangle " + std::to_string(i) + " refers to vertex " +
-                                    std::to_string(triangles[i][c]) + " but the mesh has " +
-                                    std::to_string(n) + " vertices");
+                                    std::to_string(triangles[i][c]) + " but the mesh has " + std::to_string(n) +
+                                    " vertices");
 }
 
 }  // namespace raylab

@@ -1,6 +1,6 @@
-#include "raylab/grid.h"
+#include "grid.h"
 
-#include "raylab/triangle_box_overlap.h"
+#include "triangle_box_overlap.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -52,18 +52,19 @@ Grid::Grid(MeshPtr mesh, const BuildSettings& settings) : StructureBase(std::mov
   const size_t budget = settings_.memory_budget;
   // Every triangle is referenced at least once, however coarse the grid.
   if (bytes_needed(1, n) > budget)
-    throw BuildError("grid build would need at least " + bytes_text(bytes_needed(1, n)) + " for the references of its " +
-                     std::to_string(n) + " triangles, more than the memory budget of " + bytes_text(budget));
+    throw BuildError("grid build would need at least " + bytes_text(bytes_needed(1, n)) +
+                     " for the references of its " + std::to_string(n) + " triangles, more than the memory budget of " +
+                     bytes_text(budget));
   bounds_ = mesh_->bounds();
   glm::ivec3 r = pbrt_resolution(bounds_.extent(), n);
   // The offsets alone must leave room for one reference per triangle.
-  while (cells_of(r) > 1 && (bytes_needed(cells_of(r), n) > budget || cells_of(r) >= kMaxCells))
-    r = coarser(r, 0.9);
+  while (cells_of(r) > 1 && (bytes_needed(cells_of(r), n) > budget || cells_of(r) >= kMaxCells)) r = coarser(r, 0.9);
   // A grid whose references overflow the budget is retried coarser: fewer, larger cells hold fewer
   // references, down to one reference per triangle in a single cell, which fits (checked above).
   while (!build(r) && cells_of(r) > 1) r = coarser(r, 0.8);
   if (offsets_.empty())
-    throw BuildError("grid build would need more than the memory budget of " + bytes_text(budget) + " even as one cell");
+    throw BuildError("grid build would need more than the memory budget of " + bytes_text(budget) +
+                     " even as one cell");
 }
 
 // The cells along `axis` whose closed slab reaches [lo, hi]: the first whose upper plane is >= lo, the

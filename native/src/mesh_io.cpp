@@ -94,8 +94,8 @@ std::string read_file(const std::string& path) {
   if (!S_ISREG(info.st_mode))
     throw std::invalid_argument(cannot_read(path, std::string("it is ") + file_kind(info.st_mode)));
   const auto too_big = [&path](uint64_t bytes) {
-    return std::invalid_argument(cannot_read(path, "it has " + std::to_string(bytes) + " bytes, more than the " +
-                                                       kMaxFileText + " a mesh file may have"));
+    return std::invalid_argument(cannot_read(
+        path, "it has " + std::to_string(bytes) + " bytes, more than the " + kMaxFileText + " a mesh file may have"));
   };
   if (uint64_t(info.st_size) > kMaxFileBytes) throw too_big(uint64_t(info.st_size));
 
@@ -215,8 +215,8 @@ class ObjReader {
       if (count < 3) xyz[count] = value;
     }
     if (count < 3)
-      fail(line.number(), "vertex has " + std::to_string(count) + " coordinate" + (count == 1 ? "" : "s") +
-                              ", expected x y z");
+      fail(line.number(),
+           "vertex has " + std::to_string(count) + " coordinate" + (count == 1 ? "" : "s") + ", expected x y z");
     mesh_.vertices.emplace_back(xyz[0], xyz[1], xyz[2]);
   }
 
@@ -263,10 +263,9 @@ class ObjReader {
     if (fits && index > 0 && uint64_t(index) <= total) return uint32_t(index - 1);
     if (fits && index < 0 && uint64_t(-(index + 1)) < before) return uint32_t(int64_t(before) + index);
     if (parts[0][0] != '-')
-      fail(line, "face index " + quoted(parts[0]) + " is past the last vertex: the file has " +
-                     std::to_string(total));
-    fail(line, "face index " + quoted(parts[0]) + " counts back before the first vertex: " +
-                   std::to_string(before) + " vertices precede this line");
+      fail(line, "face index " + quoted(parts[0]) + " is past the last vertex: the file has " + std::to_string(total));
+    fail(line, "face index " + quoted(parts[0]) + " counts back before the first vertex: " + std::to_string(before) +
+                   " vertices precede this line");
   }
 
   // A whole token of decimal digits with an optional sign, or too large for int64 (then beyond any
@@ -313,7 +312,7 @@ class ObjReader {
     }
     const glm::dvec3 size = glm::abs(normal);
     const int drop = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
-    const int u = (drop + 1) % 3, v = (drop + 2) % 3;  // (u, v, drop) is right-handed
+    const int u = (drop + 1) % 3, v = (drop + 2) % 3;   // (u, v, drop) is right-handed
     const double turn = normal[drop] < 0 ? -1.0 : 1.0;  // makes the polygon counter-clockwise in (u, v)
     const auto point = [&](uint32_t corner) {
       const glm::vec3& p = mesh_.vertices[corner];

@@ -1,6 +1,6 @@
-#include "raylab/octree.h"
+#include "octree.h"
 
-#include "raylab/triangle_box_overlap.h"
+#include "triangle_box_overlap.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -8,6 +8,7 @@
 #include <array>
 #include <atomic>
 #include <bit>
+#include <cassert>
 #include <cstdlib>
 #include <limits>
 #include <memory>
@@ -48,7 +49,8 @@ class WorkArray {
   void resize(size_t n) {
     if (n > capacity_) {
       constexpr size_t kHugePage = size_t(2) << 20;
-      const size_t bytes = n * sizeof(T) < kHugePage ? n * sizeof(T) : (n * sizeof(T) + kHugePage - 1) & ~(kHugePage - 1);
+      const size_t bytes =
+          n * sizeof(T) < kHugePage ? n * sizeof(T) : (n * sizeof(T) + kHugePage - 1) & ~(kHugePage - 1);
       data_.reset();
       void* p = bytes < kHugePage ? std::malloc(bytes) : std::aligned_alloc(kHugePage, bytes);
       if (!p) throw std::bad_alloc();
@@ -140,8 +142,7 @@ void count_subtree(const TriangleMesh& mesh, int max_depth, int leaf_size, const
   counts.final_bytes += sizeof(OctreeNode);
   std::array<std::vector<uint32_t>, 8> children;
   for (uint32_t t : triangles)
-    for (uint32_t m = overlapped_octants(mesh, t, box); m != 0; m &= m - 1)
-      children[std::countr_zero(m)].push_back(t);
+    for (uint32_t m = overlapped_octants(mesh, t, box); m != 0; m &= m - 1) children[std::countr_zero(m)].push_back(t);
   triangles = {};  // give the memory back before going deeper
   for (int octant = 0; octant < 8; ++octant)
     if (!children[octant].empty())
@@ -153,10 +154,11 @@ void count_subtree(const TriangleMesh& mesh, int max_depth, int leaf_size, const
 
 Octree::Octree(MeshPtr mesh, const BuildSettings& settings, int leaf_lanes) : StructureBase(std::move(mesh), settings) {
   if (leaf_lanes == 8 && !cpu_has_avx2()) throw std::invalid_argument("octree: 8 leaf lanes need a CPU with AVX2");
-  if (leaf_lanes != 0 && leaf_lanes != 4 && leaf_lanes != 8) throw std::invalid_argument("octree: leaf_lanes must be 0, 4 or 8");
+  if (leaf_lanes != 0 && leaf_lanes != 4 && leaf_lanes != 8)
+    throw std::invalid_argument("octree: leaf_lanes must be 0, 4 or 8");
   leaf_lanes_ = leaf_lanes != 0 ? leaf_lanes : cpu_has_avx2() ? 8 : 4;
-  if (settings.max_depth > kMaxDepth)  // the traversal stack is sized for kMaxDepth
-    throw std::invalid_argument("octree max_depth must be <= " + std::to_string(kMaxDepth));
+  // The traversal stack is sized for kMaxDepth, BuildSettings::validate()'s limit (build_structure checked it).
+  assert(settings.max_depth <= kMaxDepth);
   automatic_depth_ = settings.max_depth == BuildSettings::kAutoDepth;
   max_depth_ = automatic_depth_ ? auto_max_depth(mesh_->triangle_count(), settings.leaf_size) : settings.max_depth;
   if (mesh_->triangle_count() == 0) return;
@@ -194,7 +196,7 @@ void Octree::build() {
   constexpr size_t kEstimateLevelNodes = 1024, kEstimateSamples = 64;
   constexpr int kEstimateDepthsLeft = 3;
   constexpr double kEstimateMargin = 1.125;  // refuse only an estimate this far over the budget
-  constexpr size_t kPrefetchAhead = 8;  // references
+  constexpr size_t kPrefetchAhead = 8;       // references
 
   check_budget(kNodeBytes + n * (kRefBytes + sizeof(CornerRows)), budget);
   corners_ = make_huge_array<CornerRows>(n);
@@ -243,8 +245,7 @@ void Octree::build() {
       tbb::parallel_for(size_t(0), kEstimateSamples, [&](size_t i) {
         const size_t j = (2 * i + 1) * level.size() / (2 * kEstimateSamples);
         count_subtree(mesh, max_depth_, settings_.leaf_size, Bounds(level[j].lo, level[j].hi),
-                      std::vector<uint32_t>(refs.begin() + level[j].first, refs.begin() + run_end(j)), depth,
-                      counts);
+                      std::vector<uint32_t>(refs.begin() + level[j].first, refs.begin() + run_end(j)), depth, counts);
       });
       // The build's largest moment, level by level as in the checks below: the finished arrays while
       // they grow (old and new copy), the references of a level (with their octant bytes) and of the
@@ -268,9 +269,9 @@ void Octree::build() {
       }
       if (peak > limit)
         throw BuildError("octree build would need more than " + std::to_string(budget) +
-                         " bytes (memory budget), estimated before building from " +
-                         std::to_string(kEstimateSamples) + " of the " + std::to_string(level.size()) +
-                         " nodes at depth " + std::to_string(depth) + "; lower max_depth or raise leaf_size");
+                         " bytes (memory budget), estimated before building from " + std::to_string(kEstimateSamples) +
+                         " of the " + std::to_string(level.size()) + " nodes at depth " + std::to_string(depth) +
+                         "; lower max_depth or raise leaf_size");
     }
     // max_depth auto: set when splitting this level would pass the budget; its nodes become leaves.
     bool last_level = false;
@@ -366,8 +367,9 @@ void Octree::build() {
       needed = place_level();
     }
     if (needed == std::numeric_limits<size_t>::max())
-      throw BuildError("octree build would need more than 2^31 nodes or 2^32 triangle references; "
-                       "lower max_depth or raise leaf_size");
+      throw BuildError(
+          "octree build would need more than 2^31 nodes or 2^32 triangle references; "
+          "lower max_depth or raise leaf_size");
     check_budget(needed, budget);
     if (last_level) max_depth_ = depth;  // auto: the budget chose this depth
     // Exact reservations: growing by doubling would hold up to twice the finished tree.

@@ -1,7 +1,7 @@
 #include "raylab/renderer.h"
 
-#include "raylab/ray_offset.h"
-#include "raylab/threads.h"
+#include "ray_offset.h"
+#include "threads.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -192,10 +192,9 @@ class Tracer {
   // `n` shades (the Phong terms); the geometric `ng` places the shadow rays and hides lights behind.
   // `shadow_p` is where shadow rays start (the terminator point of a smooth hit); `past_face` lets
   // light in front of `n` but behind `ng` through.
-  glm::vec3 direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
-                         const glm::vec3& p, const glm::vec3& shadow_p, const glm::vec3& n, const glm::vec3& ng,
-                         bool past_face, const glm::vec3& v, RenderStats& stats, PixelRandom& random,
-                         glm::vec3& specular) const;
+  glm::vec3 direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse, const glm::vec3& p,
+                         const glm::vec3& shadow_p, const glm::vec3& n, const glm::vec3& ng, bool past_face,
+                         const glm::vec3& v, RenderStats& stats, PixelRandom& random, glm::vec3& specular) const;
 
   const SceneSnapshot& scene_;
   std::vector<PlacedInstance> instances_;
@@ -209,10 +208,9 @@ class Tracer {
 // light about 6 m from a 0.8 grey cube) gives radiance 0.3-0.4 on the lit faces, a well exposed
 // picture with no extra factor. The sun's strength is irradiance: strength * cos(theta). An area
 // light splits its energy over its samples, each radiating only forwards with an extra cosine.
-glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse,
-                               const glm::vec3& p, const glm::vec3& shadow_p, const glm::vec3& n,
-                               const glm::vec3& ng, bool past_face, const glm::vec3& v, RenderStats& stats,
-                               PixelRandom& random, glm::vec3& specular) const {
+glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const glm::vec3& diffuse, const glm::vec3& p,
+                               const glm::vec3& shadow_p, const glm::vec3& n, const glm::vec3& ng, bool past_face,
+                               const glm::vec3& v, RenderStats& stats, PixelRandom& random, glm::vec3& specular) const {
   const Light& light = *pl.light;
   // In double: colour times energy, over a squared distance of a denormal, stays finite there.
   const glm::dvec3 radiant = glm::dvec3(light.color) * double(light.energy);
@@ -247,8 +245,8 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
         const glm::vec3 l = to_light / r;
         const float cos_n = light_cosine(n, ng, l, past_face), cos_light = glm::dot(pl.axis, -l);
         if (cos_n <= 0.0f || cos_light <= 0.0f) continue;
-        const glm::vec3 e = bounded(per_sample * (double(cos_n) * cos_light / r2)) *
-                            visibility_to(origin, q, light.shadows, stats);
+        const glm::vec3 e =
+            bounded(per_sample * (double(cos_n) * cos_light / r2)) * visibility_to(origin, q, light.shadows, stats);
         sum += phong(m, diffuse, n, v, l, e, specular);
       }
     return sum;
@@ -262,7 +260,8 @@ glm::vec3 Tracer::direct_light(const PlacedLight& pl, const Material& m, const g
   const float cos_n = light_cosine(n, ng, l, past_face);
   if (cos_n <= 0.0f) return glm::vec3(0.0f);
   double factor = cos_n / (kFourPi * double(r2));
-  if (light.type == LightType::Spot) factor *= spot_attenuation(glm::dot(pl.axis, -l), light.spot_size, light.spot_blend);
+  if (light.type == LightType::Spot)
+    factor *= spot_attenuation(glm::dot(pl.axis, -l), light.spot_size, light.spot_blend);
   if (factor <= 0.0f) return glm::vec3(0.0f);
   // The shadow ray runs from its own start (the offset, maybe lifted point) to the light itself.
   const glm::vec3 e = bounded(radiant * factor) * visibility_to(origin, pl.position, light.shadows, stats);
@@ -279,7 +278,7 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   const float length = glm::length(n);
   n = length > 0.0f && std::isfinite(length) ? n / length : -d;
   const bool entering = glm::dot(n, d) < 0.0f;  // against the winding's normal: from outside
-  const glm::vec3 nf = entering ? n : -n;        // faces the incoming ray
+  const glm::vec3 nf = entering ? n : -n;       // faces the incoming ray
   // Smooth shading bends the Phong terms only; offsets, reflection and refraction stay geometric.
   const ShadingNormal smooth = shading_normal(inst, hit, nf);
   const glm::vec3 ns = smooth.n;
@@ -298,7 +297,8 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
   if (terminator) {
     const glm::vec3 corner[3] = {a, b, c};
     const glm::vec3* normals = inst.shading_normals->data() + 3 * size_t(hit.triangle);
-    shadow_p = glm::vec3(inst.transform * glm::vec4(terminator_point(corner, normals, weight, p_object, smooth.side), 1.0f));
+    shadow_p =
+        glm::vec3(inst.transform * glm::vec4(terminator_point(corner, normals, weight, p_object, smooth.side), 1.0f));
   }
 
   const float kr = m.reflectivity + m.metallic * (1.0f - m.reflectivity);
@@ -314,7 +314,7 @@ glm::vec3 Tracer::shade(const Ray& ray, const Hit& hit, int depth, RenderStats& 
 
   const float t = m.transmission;
   glm::vec3 color = specular + (1.0f - t) * (1.0f - kr) * local;
-  if (depth >= settings_.max_depth) return bounded(color);
+  if (depth >= settings_.max_recursion) return bounded(color);
 
   // Fresnel splits the transmitted share into reflection and refraction; under total internal
   // reflection all of it reflects.
@@ -371,8 +371,10 @@ bool refract_direction(const glm::vec3& incident, const glm::vec3& n, float eta,
 }
 
 void RenderSettings::validate() const {
-  require(super_sampling >= 1 && super_sampling <= 4, "super_sampling must be 1 to 4, got " + std::to_string(super_sampling));
-  require(max_depth >= 0 && max_depth <= 64, "max_depth must be 0 to 64, got " + std::to_string(max_depth));
+  require(super_sampling >= 1 && super_sampling <= 4,
+          "super_sampling must be 1 to 4, got " + std::to_string(super_sampling));
+  require(max_recursion >= 0 && max_recursion <= 64,
+          "max_recursion must be 0 to 64, got " + std::to_string(max_recursion));
   require(finite(background) && glm::all(glm::lessThanEqual(glm::abs(background), glm::vec3(kRadianceLimit))),
           "background must be finite, each component within +-" + number(kRadianceLimit));
   require(finite(ambient), "ambient must be finite");
@@ -404,7 +406,8 @@ void Material::validate() const {
   require(metallic >= 0.0f && metallic <= 1.0f, "metallic must be 0 to 1");
   require(reflectivity >= 0.0f && reflectivity <= 1.0f, "reflectivity must be 0 to 1");
   require(transmission >= 0.0f && transmission <= 1.0f, "transmission must be 0 to 1");
-  require(ior >= kIorRange[0] && ior <= kIorRange[1], "ior must be " + number(kIorRange[0]) + " to " + number(kIorRange[1]));
+  require(ior >= kIorRange[0] && ior <= kIorRange[1],
+          "ior must be " + number(kIorRange[0]) + " to " + number(kIorRange[1]));
   require(std::isfinite(ambient), "ambient must be finite");
 }
 
@@ -460,11 +463,11 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
   std::vector<PlacedInstance> instances;
   for (uint32_t i = 0; i < scene.instance_count(); ++i) {
     const Instance& inst = scene.instance(i);
-    require(inst.material < materials.size(),
-            "instance " + std::to_string(i) + " uses material " + std::to_string(inst.material) + " but " +
-                std::to_string(materials.size()) + " materials were given");
-    instances.push_back({&scene.mesh(inst.mesh), scene.shading_normals(inst.mesh), &materials[inst.material], inst.transform,
-                         glm::transpose(glm::inverse(glm::mat3(inst.transform)))});
+    require(inst.material < materials.size(), "instance " + std::to_string(i) + " uses material " +
+                                                  std::to_string(inst.material) + " but " +
+                                                  std::to_string(materials.size()) + " materials were given");
+    instances.push_back({&scene.mesh(inst.mesh), scene.shading_normals(inst.mesh), &materials[inst.material],
+                         inst.transform, glm::transpose(glm::inverse(glm::mat3(inst.transform)))});
   }
   const Tracer tracer(scene, std::move(instances), std::move(placed_lights), settings);
 
@@ -510,7 +513,8 @@ RenderResult render(const SceneSnapshot& scene, const CameraSettings& camera_set
         TraversalStats primary;
         for (int j = 0; j < ss; ++j)
           for (int i = 0; i < ss; ++i) {
-            const Ray ray = camera.ray(float(x) + (float(i) + 0.5f) / float(ss), float(y) + (float(j) + 0.5f) / float(ss));
+            const Ray ray =
+                camera.ray(float(x) + (float(i) + 0.5f) / float(ss), float(y) + (float(j) + 0.5f) / float(ss));
             ++own.rays_primary;
             Hit hit;
             const bool found = scene.closest(ray, hit, &primary);

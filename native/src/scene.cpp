@@ -1,10 +1,10 @@
 #include "raylab/scene.h"
 
-#include "raylab/batch.h"
+#include "batch.h"
 #include "raylab/refit.h"
 
-#include <glm/gtc/matrix_access.hpp>
 #include <tbb/parallel_for.h>
+#include <glm/gtc/matrix_access.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -66,8 +66,8 @@ struct Scene::Impl {
     uint64_t settings_generation = 0;  // of the last set_settings()
     std::vector<SceneMesh> meshes;
     std::vector<SceneInstance> instances;
-    uint64_t generation = 0;      // changes so far
-    uint64_t top_generation = 0;  // of the last change to an instance's world box
+    uint64_t generation = 0;            // changes so far
+    uint64_t top_generation = 0;        // of the last change to an instance's world box
     uint64_t instances_generation = 0;  // of the last change to the set of instances
   };
   // A thread whose changes the published snapshot does not include yet, and its last change.
@@ -159,7 +159,8 @@ void Scene::refit_mesh(uint32_t mesh, std::vector<glm::vec3> vertices, std::vect
   std::lock_guard lock(impl_->mutex);
   SceneMesh& slot = impl_->mesh_slot(mesh);
   if (slot.mesh != current)
-    throw std::invalid_argument("refit_mesh: mesh " + std::to_string(mesh) + " was replaced while its vertices were checked");
+    throw std::invalid_argument("refit_mesh: mesh " + std::to_string(mesh) +
+                                " was replaced while its vertices were checked");
   // Not committed since the last refit: refit from the structure that one would have refitted
   // (the triangles are the same). Stale for another reason (new mesh, new settings): a build.
   std::shared_ptr<const Structure> source = slot.structure ? slot.structure : slot.refit_source;
@@ -183,8 +184,9 @@ void Scene::set_shading_normals(uint32_t mesh, std::vector<glm::vec3> corner_nor
   auto normals = std::make_shared<const std::vector<glm::vec3>>(std::move(corner_normals));
   std::lock_guard lock(impl_->mutex);
   SceneMesh& slot = impl_->mesh_slot(mesh);
-  if (slot.mesh != target) throw std::invalid_argument("shading normals: mesh " + std::to_string(mesh) +
-                                                       " was replaced while they were checked");
+  if (slot.mesh != target)
+    throw std::invalid_argument("shading normals: mesh " + std::to_string(mesh) +
+                                " was replaced while they were checked");
   slot.shading_normals = std::move(normals);
   impl_->changed(false);
 }
@@ -380,8 +382,8 @@ void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<
   intersect_closest(*scene.snapshot(), rays, hits, stats, threads, per_ray);
 }
 
-void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
+void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded, TraversalStats* stats,
+                   int threads, std::span<TraversalStats> per_ray) {
   intersect_any(*scene.snapshot(), rays, occluded, stats, threads, per_ray);
 }
 

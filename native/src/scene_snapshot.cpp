@@ -1,17 +1,24 @@
 #include "raylab/scene_snapshot.h"
 
-#include "raylab/batch.h"
-#include "raylab/box_intersection.h"
-#include "raylab/bvh.h"
+#include "batch.h"
+#include "box_intersection.h"
+#include "bvh.h"
 #include "raylab/refit.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace raylab {
 
 namespace {
+
+// The far limit for the top level's box tests, whose boxes are not padded: about 1e-5 relative slack
+// for the box and triangle tests rounding the same point differently. The structures themselves need
+// none: their boxes are padded (box_intersection.h), and they open every box entered at or before the
+// best hit (inclusive, for the index tie-break).
+float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-16f; }
 
 Ray to_object(const SceneInstance& inst, const Ray& ray, float tmax) {
   Ray r;
@@ -129,10 +136,9 @@ bool SceneSnapshot::closest(const Ray& ray, Hit& hit, Recorder& record, Query qu
   bool entered = false;
   traverse(ray, record, tmax, [&](uint32_t k, float limit) {
     Hit h;
-    const bool found = query_instance(k, ray, limit, record, entered,
-                                      [&](uint32_t k, const Structure& s, const Ray& r, TraversalStats* st) {
-                                        return query(k, s, r, h, st);
-                                      });
+    const bool found = query_instance(
+        k, ray, limit, record, entered,
+        [&](uint32_t k, const Structure& s, const Ray& r, TraversalStats* st) { return query(k, s, r, h, st); });
     // Equal t across instances: the lower instance index wins, whatever the visiting order.
     if (found && (h.t < best.t || (h.t == best.t && k < best.instance))) {
       best = h;
@@ -152,9 +158,9 @@ bool SceneSnapshot::any(const Ray& ray, Recorder& record) const {
   float tmax = ray.tmax;
   bool entered = false;
   traverse(ray, record, tmax, [&](uint32_t k, float limit) {
-    found = query_instance(k, ray, limit, record, entered, [&](uint32_t, const Structure& s, const Ray& r, TraversalStats* st) {
-      return st ? s.any(r, *st) : s.any(r);
-    });
+    found = query_instance(
+        k, ray, limit, record, entered,
+        [&](uint32_t, const Structure& s, const Ray& r, TraversalStats* st) { return st ? s.any(r, *st) : s.any(r); });
     return found ? -kInfinity : limit;
   });
   if (!entered) record.ignored();
@@ -190,8 +196,8 @@ struct SceneStoryRecord {
 }  // namespace
 
 void SceneStory::finish() {
-  const bool tested = std::any_of(instances.begin(), instances.end(),
-                                  [](const Part& p) { return !p.story.triangles.empty(); });
+  const bool tested =
+      std::any_of(instances.begin(), instances.end(), [](const Part& p) { return !p.story.triangles.empty(); });
   status = ray_status(hit.valid(), ignored, tested);
 }
 
@@ -287,14 +293,14 @@ void intersect_any(const SceneSnapshot& scene, std::span<const Ray> rays, std::s
                    TraversalStats* stats, int threads, std::span<TraversalStats> per_ray) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
   for_each_ray(
-      rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); }, per_ray);
+      rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { occluded[i] = scene.any(rays[i], st); },
+      per_ray);
 }
 
 void intersect_with_status(const SceneSnapshot& scene, std::span<const Ray> rays, std::span<Hit> hits,
                            std::span<RayStatus> statuses, int threads) {
-  statuses_of_rays(rays, hits, statuses, threads, [&](const Ray& ray, Hit& hit, TraversalStats& own) {
-    return scene.closest(ray, hit, &own);
-  });
+  statuses_of_rays(rays, hits, statuses, threads,
+                   [&](const Ray& ray, Hit& hit, TraversalStats& own) { return scene.closest(ray, hit, &own); });
 }
 
 }  // namespace raylab

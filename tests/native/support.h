@@ -55,10 +55,10 @@ inline std::vector<Ray> random_rays(const TriangleMesh& mesh, size_t count, uint
   return rays;
 }
 
-// Frame f (of `frames`) of an animation of `rest` for the refit tests: a twist about z and a wave along x that grow with f, and
-// three frames that stress the refit: f = 8 flattens the mesh onto z = 0 (coplanar overlaps, many
-// triangles degenerate to segments), f = 12 collapses the vertices with x above the centre onto one
-// point (degenerate triangles), f = 16 mirrors x (every triangle flips its winding).
+// Frame f (of `frames`) of an animation of `rest` for the refit tests: a twist about z and a wave along x that grow
+// with f, and three frames that stress the refit: f = 8 flattens the mesh onto z = 0 (coplanar overlaps, many triangles
+// degenerate to segments), f = 12 collapses the vertices with x above the centre onto one point (degenerate triangles),
+// f = 16 mirrors x (every triangle flips its winding).
 inline std::vector<glm::vec3> animated_vertices(const TriangleMesh& rest, int f, int frames) {
   const Bounds b = rest.bounds();
   const glm::vec3 c = b.center(), e = b.extent();
@@ -79,7 +79,8 @@ inline std::vector<glm::vec3> animated_vertices(const TriangleMesh& rest, int f,
 
 // Sutherland–Hodgman: the part of the triangle inside the box grown by `grow`, in double. Independent
 // of the separating-axis test the octree and the grid use; non-empty means the triangle overlaps the box.
-inline std::vector<glm::dvec3> clip_to_box(const TriangleMesh& mesh, uint32_t triangle, const Bounds& box, double grow) {
+inline std::vector<glm::dvec3> clip_to_box(const TriangleMesh& mesh, uint32_t triangle, const Bounds& box,
+                                           double grow) {
   std::vector<glm::dvec3> poly = {mesh.vertex(triangle, 0), mesh.vertex(triangle, 1), mesh.vertex(triangle, 2)};
   for (int axis = 0; axis < 3; ++axis)
     for (double side : {-1.0, 1.0}) {

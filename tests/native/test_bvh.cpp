@@ -1,4 +1,4 @@
-#include "raylab/bvh.h"
+#include "bvh.h"
 #include "raylab/mesh_io.h"
 
 #include <gtest/gtest.h>
@@ -7,9 +7,9 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <random>
 #include <string>
 #include <utility>
-#include <random>
 
 using namespace raylab;
 
@@ -34,15 +34,13 @@ std::vector<Ray> random_rays(const Bounds& box, size_t n, uint32_t seed) {
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   const float largest = glm::max(glm::max(box.extent().x, box.extent().y), box.extent().z);
   const glm::vec3 extent = glm::max(box.extent(), glm::vec3(0.25f * largest));
-  auto point_in = [&](glm::vec3 lo, glm::vec3 size) {
-    return lo + glm::vec3(unit(rng), unit(rng), unit(rng)) * size;
-  };
+  auto point_in = [&](glm::vec3 lo, glm::vec3 size) { return lo + glm::vec3(unit(rng), unit(rng), unit(rng)) * size; };
   std::vector<Ray> rays(n);
   for (size_t i = 0; i < n; ++i) {
     Ray& r = rays[i];
     r.origin = point_in(box.lo - extent, 3.0f * extent);
-    const glm::vec3 target = (i % 4 == 3) ? point_in(glm::vec3(-1.0f), glm::vec3(2.0f)) + r.origin
-                                          : point_in(box.lo, extent);
+    const glm::vec3 target =
+        (i % 4 == 3) ? point_in(glm::vec3(-1.0f), glm::vec3(2.0f)) + r.origin : point_in(box.lo, extent);
     r.direction = target - r.origin;
     if (glm::length(r.direction) == 0.0f) r.direction = {0, 0, 1};
   }
@@ -184,7 +182,8 @@ TEST(BvhBuild, LeavesOutEmptyBoxesAsIfTheyWereNeverGiven) {
   const BinaryBvh from_callback = build_binary_bvh(
       uint32_t(all.size()), [&](uint32_t b, uint32_t e, Bounds* out) { std::copy(&all[b], &all[e], out); }, 4, 4);
   ASSERT_EQ(from_callback.nodes.size(), with_empty.nodes.size());
-  EXPECT_EQ(0, std::memcmp(from_callback.nodes.data(), with_empty.nodes.data(), with_empty.nodes.size() * sizeof(BvhNode)));
+  EXPECT_EQ(
+      0, std::memcmp(from_callback.nodes.data(), with_empty.nodes.data(), with_empty.nodes.size() * sizeof(BvhNode)));
   EXPECT_EQ(from_callback.prims, with_empty.prims);
 }
 

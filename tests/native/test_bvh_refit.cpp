@@ -3,7 +3,7 @@
 // their triangles; its topology is its source's; bad vertices change nothing.
 #include "support.h"
 
-#include "raylab/bvh.h"
+#include "bvh.h"
 #include "raylab/refit.h"
 
 #include <gtest/gtest.h>
@@ -156,11 +156,13 @@ TEST(BvhRefit, SahCostDegradesWhenTheVerticesScramble) {
   const double refit_cost = static_cast<const Bvh&>(*refitted).sah_cost();
   EXPECT_GT(built.sah_cost(), kSahTraversalCost);  // the root visit and at least one leaf block
   EXPECT_GT(refit_cost, 1.25 * rebuilt.sah_cost());
-  expect_exact(*build_structure(refitted->mesh_ptr(), [] {
-    BuildSettings s;
-    s.kind = StructureKind::None;
-    return s;
-  }()), *refitted, random_rays(refitted->mesh(), 200, 3));
+  expect_exact(*build_structure(refitted->mesh_ptr(),
+                                [] {
+                                  BuildSettings s;
+                                  s.kind = StructureKind::None;
+                                  return s;
+                                }()),
+               *refitted, random_rays(refitted->mesh(), 200, 3));
 }
 
 TEST(BvhRefit, KindsWithoutTopologyRefitAndTheOthersRebuild) {

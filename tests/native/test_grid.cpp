@@ -1,7 +1,7 @@
-#include "raylab/grid.h"
+#include "grid.h"
 #include "raylab/mesh_io.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_box_overlap.h"
+#include "triangle_box_overlap.h"
 
 #include "support.h"
 
@@ -68,8 +68,8 @@ TEST(GridBuild, ResolutionFollowsPbrtsRule) {
 
 TEST(GridBuild, EveryCellHoldsExactlyTheTrianglesThatOverlapIt) {
   // A large triangle across many cells, plus the cow.
-  std::vector<glm::vec3> v = {{0.05f, 0.05f, 0.3f}, {0.95f, 0.1f, 0.6f}, {0.2f, 0.95f, 0.7f}, {0, 0, 0}, {1, 1, 1},
-                              {1, 0, 1}};
+  std::vector<glm::vec3> v = {
+      {0.05f, 0.05f, 0.3f}, {0.95f, 0.1f, 0.6f}, {0.2f, 0.95f, 0.7f}, {0, 0, 0}, {1, 1, 1}, {1, 0, 1}};
   const MeshPtr large = mesh_of(v, {{0, 1, 2}, {3, 4, 5}});
   for (const MeshPtr& mesh : {large, shipped("spot_low_resolution.obj")}) {
     const auto s = build(mesh, StructureKind::Grid);
@@ -230,7 +230,8 @@ TEST(GridTraversal, AxisRaysOnCellPlanesEqualBruteForce) {
   int hits = 0;
   for (int i = 0; i < 3000; ++i) {
     const glm::ivec3 r = g.resolution();
-    const glm::ivec3 corner(int(rng() % uint32_t(r.x + 1)), int(rng() % uint32_t(r.y + 1)), int(rng() % uint32_t(r.z + 1)));
+    const glm::ivec3 corner(int(rng() % uint32_t(r.x + 1)), int(rng() % uint32_t(r.y + 1)),
+                            int(rng() % uint32_t(r.z + 1)));
     const int axis = i % 3;
     const bool forward = (i / 3) % 2 == 0;
     glm::vec3 origin(g.plane(0, corner.x), g.plane(1, corner.y), g.plane(2, corner.z));

@@ -99,5 +99,5 @@ TEST(HitComparison, ExamplesKeepTheFirstFewOfEachKind) {
   EXPECT_EQ(json["rays"], 10) << json;
   EXPECT_EQ(json["examples"].size(), 3u) << json;
   EXPECT_DOUBLE_EQ(json["examples"][0]["raylab"]["double_t"].get<double>(), 1.0) << json;  // re-solved
-  EXPECT_TRUE(json["examples"][0]["embree"].is_null()) << json;  // Embree missed
+  EXPECT_TRUE(json["examples"][0]["embree"].is_null()) << json;                            // Embree missed
 }

@@ -1,4 +1,4 @@
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 #include "raylab/triangle_intersection.h"
 
 #include <gtest/gtest.h>
@@ -136,8 +136,7 @@ Surface fan(std::mt19937& rng, int k) {
 // the same double as in the unrotated order, times 1/det). NaN if the rotated test misses.
 float corner_weight(const Surface& s, uint32_t t, int c, const WatertightRay& w) {
   TriangleHit h;
-  if (!intersect_watertight(w, s.corner(t, (c + 2) % 3), s.corner(t, c), s.corner(t, (c + 1) % 3), 0.0f,
-                            kInfinity, h))
+  if (!intersect_watertight(w, s.corner(t, (c + 2) % 3), s.corner(t, c), s.corner(t, (c + 1) % 3), 0.0f, kInfinity, h))
     return std::numeric_limits<float>::quiet_NaN();
   return h.u;
 }
@@ -212,7 +211,8 @@ TEST(TriangleIntersection, RaysThroughSharedEdgesAndVerticesLeakWithMollerTrumbo
         ++mt_leaks;
         ++(through_vertex ? mt_vertex_leaks : mt_edge_leaks);
       }
-      ASSERT_FALSE(wt_hits.empty()) << "the watertight test leaks: ray " << rays << (through_vertex ? " (vertex)" : " (edge)");
+      ASSERT_FALSE(wt_hits.empty()) << "the watertight test leaks: ray " << rays
+                                    << (through_vertex ? " (vertex)" : " (edge)");
       for (uint32_t t : wt_hits)
         ASSERT_NE(std::find(expected.begin(), expected.end(), t), expected.end())
             << "ray " << rays << " hits triangle " << t << ", away from its target";
@@ -266,9 +266,10 @@ TEST(TriangleIntersection, RaysThroughSharedEdgesAndVerticesLeakWithMollerTrumbo
       }
     }
   }
-  std::printf("[ counts   ] %d rays; Möller–Trumbore misses every triangle on %d (%d through an edge, %d through a "
-              "vertex); watertight on none, both triangles of the edge on %d; %d exact edge midpoints\n",
-              rays, mt_leaks, mt_edge_leaks, mt_vertex_leaks, double_hits, exact_edges);
+  std::printf(
+      "[ counts   ] %d rays; Möller–Trumbore misses every triangle on %d (%d through an edge, %d through a "
+      "vertex); watertight on none, both triangles of the edge on %d; %d exact edge midpoints\n",
+      rays, mt_leaks, mt_edge_leaks, mt_vertex_leaks, double_hits, exact_edges);
   EXPECT_GT(mt_leaks, 0) << "Möller–Trumbore no longer leaks here: the test would pass for a leaky test";
   EXPECT_GT(exact_edges, 10);
 }

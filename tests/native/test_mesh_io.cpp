@@ -57,8 +57,8 @@ TEST_F(MeshIo, NonFiniteOrNonNumericCoordinatesNameTheFileAndLine) {
   const struct {
     const char* line;
     const char* token;
-  } cases[] = {{"v nan nan nan", "'nan'"}, {"v inf 0 0", "'inf'"}, {"v a b c", "'a'"},
-               {"v 1,5 2 3", "'1,5'"},   {"v 1e39 0 0", "'1e39'"}, {"v 0 0 0x1", "'0x1'"}};
+  } cases[] = {{"v nan nan nan", "'nan'"}, {"v inf 0 0", "'inf'"},   {"v a b c", "'a'"},
+               {"v 1,5 2 3", "'1,5'"},     {"v 1e39 0 0", "'1e39'"}, {"v 0 0 0x1", "'0x1'"}};
   for (const auto& c : cases) {
     const std::string path = write("bad.obj", std::string(kTriangle) + c.line + "\nf 1 2 4\n");
     const std::string message = refusal(path);
@@ -111,7 +111,8 @@ TEST_F(MeshIo, FaceIndicesPastTwoToThe32AreRefusedAsWritten) {
       {"f 8589934595 1 2", "face index '8589934595' is past the last vertex: the file has 3"},
       {"f 99999999999999999999 1 2", "face index '99999999999999999999' is past the last vertex: the file has 3"},
       {"f 2147483648 1 2", "face index '2147483648' is past the last vertex: the file has 3"},
-      {"f 2 3 -4294967295", "face index '-4294967295' counts back before the first vertex: 3 vertices precede this line"},
+      {"f 2 3 -4294967295",
+       "face index '-4294967295' counts back before the first vertex: 3 vertices precede this line"},
       {"f 1 2 -4", "face index '-4' counts back before the first vertex: 3 vertices precede this line"},
       {"f 0 1 2", "face vertex '0' has an index 0: OBJ indices count from 1, or back from -1"},
       {"f 1/0 2 3", "face vertex '1/0' has an index 0: OBJ indices count from 1, or back from -1"},
@@ -136,7 +137,8 @@ TEST_F(MeshIo, NegativeIndicesCountBackFromTheLineAndPositiveOnesReachTheWholeFi
 // One parse decides a coordinate, however many digits it has (these loaded as 0 and as "infinite").
 TEST_F(MeshIo, LongCoordinatesLoadTheirExactValue) {
   const std::string zeros(400, '0');
-  const std::string path = write("long.obj", "v 0." + zeros + "1e400 0 0\nv 1" + zeros + "e-400 0 0\nv 0 1e-46 1\nf 1 2 3\n");
+  const std::string path =
+      write("long.obj", "v 0." + zeros + "1e400 0 0\nv 1" + zeros + "e-400 0 0\nv 0 1e-46 1\nf 1 2 3\n");
   const TriangleMesh mesh = load_mesh(path);
   ASSERT_EQ(mesh.vertices.size(), 3u);
   EXPECT_EQ(mesh.vertices[0].x, 0.1f);
@@ -149,7 +151,8 @@ TEST_F(MeshIo, BytesThatAreNotUtf8AreShownEscaped) {
   const std::string vertex = write("bytes_v.obj", std::string(kTriangle) + "v \xff\xfe 0 0\n");
   EXPECT_EQ(refusal(vertex), vertex + ":5: vertex coordinate '\\xff\\xfe' is not a finite number");
   const std::string face = write("bytes_f.obj", std::string(kTriangle) + "f 1 2 \xc3\xa9\x80\n");
-  EXPECT_EQ(refusal(face), face + ":5: face vertex '\xc3\xa9\\x80' is not v, v/vt, v//vn or v/vt/vn with whole-number indices");
+  EXPECT_EQ(refusal(face),
+            face + ":5: face vertex '\xc3\xa9\\x80' is not v, v/vt, v//vn or v/vt/vn with whole-number indices");
 }
 
 // /dev/zero never ends and a FIFO blocks until a writer comes: only regular files are read.
@@ -174,7 +177,8 @@ TEST_F(MeshIo, AFifoIsRefusedWithoutWaitingForAWriter) {
 TEST_F(MeshIo, AFileOverTheSizeLimitIsRefusedBeforeReading) {
   const std::string path = write("huge.obj", kTriangle);
   fs::resize_file(path, (uint64_t(1) << 30) + 1);  // sparse: nothing is written
-  EXPECT_EQ(refusal(path), "cannot read mesh '" + path + "': it has 1073741825 bytes, more than the 1 GiB a mesh file may have");
+  EXPECT_EQ(refusal(path),
+            "cannot read mesh '" + path + "': it has 1073741825 bytes, more than the 1 GiB a mesh file may have");
 }
 
 // Quads split as tinyobjloader split them (along the shorter diagonal; the second one if equal), convex
@@ -211,8 +215,8 @@ TEST_F(MeshIo, AConvexPolygonGivesAllItsTriangles) {
   EXPECT_EQ(load_mesh(path).triangles, expected);
 }
 
-// Everything tinyobjloader (raylab's loader until issue 28) read before still reads the same: polygons, negative indices, texture
-// coordinates and normals, a w coordinate, a leading '+', indentation and CRLF line ends.
+// Everything tinyobjloader (raylab's loader until issue 28) read before still reads the same: polygons, negative
+// indices, texture coordinates and normals, a w coordinate, a leading '+', indentation and CRLF line ends.
 TEST_F(MeshIo, ValidFilesLoadAsBefore) {
   const std::string path = write("good.obj",
                                  "# a quad, a pentagon and a triangle\r\n"
@@ -243,13 +247,12 @@ TEST(MeshIoShipped, EveryShippedMeshLoadsWithItsCounts) {
   const struct {
     const char* name;
     size_t vertices, triangles;
-  } meshes[] = {{"armadillo", 14587, 29170}, {"bunny", 3301, 6598},     {"bunny_hr", 29834, 59664},
-                {"dragon", 50000, 100000},   {"goathead", 2763, 5522},  {"koala", 49999, 99994},
-                {"plane_holes", 8519, 16747}, {"rod", 12, 20},          {"sphere", 642, 1280},
+  } meshes[] = {{"armadillo", 14587, 29170},        {"bunny", 3301, 6598},    {"bunny_hr", 29834, 59664},
+                {"dragon", 50000, 100000},          {"goathead", 2763, 5522}, {"koala", 49999, 99994},
+                {"plane_holes", 8519, 16747},       {"rod", 12, 20},          {"sphere", 642, 1280},
                 {"spot_low_resolution", 829, 1654}, {"teapot", 3644, 6320}};
   size_t found = 0;
-  for (const auto& entry : fs::directory_iterator(RAYLAB_MESH_DIR))
-    found += entry.path().extension() == ".obj";
+  for (const auto& entry : fs::directory_iterator(RAYLAB_MESH_DIR)) found += entry.path().extension() == ".obj";
   EXPECT_EQ(found, std::size(meshes)) << "a mesh was added or removed: list its counts here";
   for (const auto& m : meshes) {
     const TriangleMesh mesh = load_mesh(std::string(RAYLAB_MESH_DIR) + "/" + m.name + ".obj");

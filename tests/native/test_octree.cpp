@@ -1,7 +1,7 @@
+#include "octree.h"
 #include "raylab/mesh_io.h"
-#include "raylab/octree.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_box_overlap.h"
+#include "triangle_box_overlap.h"
 
 #include "support.h"
 
@@ -492,8 +492,14 @@ TEST(OctreeExactness, OctantTestEqualsTheBoxTestOfEachOctant) {
       switch (pick(rng)) {
         case 0: direction[axis] = 0.0f; break;
         case 1: direction[axis] = -0.0f; break;
-        case 2: origin[axis] = mid[axis]; direction[axis] = 0.0f; break;
-        case 3: origin[axis] = box.lo[axis]; direction[axis] = i % 2 ? 0.0f : -1e-39f; break;
+        case 2:
+          origin[axis] = mid[axis];
+          direction[axis] = 0.0f;
+          break;
+        case 3:
+          origin[axis] = box.lo[axis];
+          direction[axis] = i % 2 ? 0.0f : -1e-39f;
+          break;
         default: break;
       }
     }

@@ -1,6 +1,6 @@
 // max_depth auto, the octree's default: the depth follows the triangle count and stays within the
 // memory budget.
-#include "raylab/octree.h"
+#include "octree.h"
 #include "raylab/structure.h"
 
 #include "support.h"

@@ -1,7 +1,7 @@
 // Mailboxing in the octree (mailbox.h): a triangle that straddles several leaves is tested once per
 // ray, the hits stay brute force's bit for bit, and the counters count only the tests made.
-#include "raylab/mailbox.h"
-#include "raylab/octree.h"
+#include "mailbox.h"
+#include "octree.h"
 #include "raylab/structure.h"
 
 #include "support.h"

@@ -1,12 +1,12 @@
+#include "ray_offset.h"
 #include "raylab/camera.h"
-#include "raylab/ray_offset.h"
 #include "raylab/renderer.h"
 #include "raylab/scene.h"
 #include "raylab/triangle_intersection.h"
 
+#include <gtest/gtest.h>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
-#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <atomic>
@@ -262,7 +262,7 @@ TEST(Renderer, MirrorFloorReflectsTheBackground) {
   // A perfect mirror seen head-on shows what is above it: the background (nothing else is there).
   EXPECT_NEAR(glm::distance(pixel(r, 16, 16), f.settings.background), 0.0f, 1e-6f);
   EXPECT_EQ(r.stats.rays_reflection, 16u * 16u);
-  f.settings.max_depth = 0;  // no bounce allowed: the mirror is black
+  f.settings.max_recursion = 0;  // no bounce allowed: the mirror is black
   EXPECT_EQ(pixel(f.run(), 16, 16), glm::vec3(0.0f));
 }
 
@@ -370,7 +370,8 @@ TEST(Renderer, EachPixelsWorkAddsUpToTheTotalsAndPrimaryCountsTheCameraRaysAlone
         f.scene.closest(camera.ray(float(x) + (float(k) + 0.5f) / 2.0f, float(y) + (float(j) + 0.5f) / 2.0f), hit,
                         &own);
       }
-    for (const CounterInfo& c : kCounters) ASSERT_EQ(primary.pixel_work[i].*c.field, own.*c.field) << c.name << " " << i;
+    for (const CounterInfo& c : kCounters)
+      ASSERT_EQ(primary.pixel_work[i].*c.field, own.*c.field) << c.name << " " << i;
   }
 }
 

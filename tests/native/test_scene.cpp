@@ -3,8 +3,8 @@
 #include "raylab/mesh_io.h"
 #include "raylab/scene.h"
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -231,7 +231,7 @@ TEST(Scene, RaysIgnoredAreRaysThatEnterNoObject) {
     EXPECT_FALSE(scene.any(ray_of({3, 0.5f, 1}, {0, 0, -1}), &stats));
     EXPECT_EQ(stats.rays, 3u);
     if (kind == StructureKind::None) {
-      EXPECT_EQ(stats.rays_ignored, 0u);  // brute force ignores nothing...
+      EXPECT_EQ(stats.rays_ignored, 0u);         // brute force ignores nothing...
       EXPECT_EQ(stats.triangle_tests, 3u * 4u);  // ...and tests all four triangles per ray
     } else {
       EXPECT_EQ(stats.rays_ignored, 2u) << structure_kind_name(kind);
@@ -270,11 +270,14 @@ TEST(Scene, StoryTellsWhatClosestDid) {
         EXPECT_EQ(st.hit.instance, h.instance);
       }
       for (const CounterInfo& c : kCounters) EXPECT_EQ(st.stats.*c.field, stats.*c.field) << info.name << " " << c.name;
-      EXPECT_EQ(st.top_boxes.size() + [&] {
-        size_t n = 0;
-        for (const SceneStory::Part& p : st.instances) n += p.story.boxes.size();
-        return n;
-      }(), stats.box_tests);
+      EXPECT_EQ(
+          st.top_boxes.size() +
+              [&] {
+                size_t n = 0;
+                for (const SceneStory::Part& p : st.instances) n += p.story.boxes.size();
+                return n;
+              }(),
+          stats.box_tests);
       EXPECT_EQ(st.top_boxes.empty(), !info.uses_top_level);
       EXPECT_EQ(st.status, ray_status(found, stats.rays_ignored > 0, stats.triangle_tests > 0));
     }
@@ -330,8 +333,8 @@ std::vector<Hit> brute_force(const std::vector<Placed>& placed, std::span<const 
 bool same_hits(std::span<const Hit> got, std::span<const Hit> expected) {
   for (size_t i = 0; i < got.size(); ++i) {
     if (got[i].valid() != expected[i].valid()) return false;
-    if (got[i].valid() && (got[i].instance != expected[i].instance ||
-                           std::abs(got[i].t - expected[i].t) > 1e-5f * expected[i].t))
+    if (got[i].valid() &&
+        (got[i].instance != expected[i].instance || std::abs(got[i].t - expected[i].t) > 1e-5f * expected[i].t))
       return false;
   }
   return true;
@@ -420,9 +423,8 @@ TEST(SceneThreads, QueriesDuringMeshReplacementsSeeTheOldOrTheNewStateWhole) {
   const std::vector<glm::vec2> centres = {{0, 0}, {3, 0}};
   const std::vector<Ray> rays = rays_through(centres, offsets);
   const glm::mat4 identity(1.0f);
-  const std::vector<std::vector<Hit>> states = {
-      brute_force({{sphere, identity}, {sphere, translation(3, 0, 0)}}, rays),
-      brute_force({{small, identity}, {sphere, translation(3, 0, 0)}}, rays)};
+  const std::vector<std::vector<Hit>> states = {brute_force({{sphere, identity}, {sphere, translation(3, 0, 0)}}, rays),
+                                                brute_force({{small, identity}, {sphere, translation(3, 0, 0)}}, rays)};
   ASSERT_FALSE(same_hits(states[0], states[1]));
   ASSERT_TRUE(answers_from_one_state(scene, rays, {states[0]}));
 

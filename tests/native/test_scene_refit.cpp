@@ -6,8 +6,8 @@
 #include "raylab/refit.h"
 #include "raylab/scene.h"
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -200,8 +200,8 @@ TEST(SceneRefitThreads, QueriesDuringRefitCommitsSeeTheOldOrTheNewStateWhole) {
           for (const auto& e : expected) {
             bool same = true;
             for (size_t i = 0; i < rays.size() && same; ++i)
-              same = hits[i].valid() == e[i].valid() && (!e[i].valid() || (hits[i].t == e[i].t &&
-                                                                             hits[i].triangle == e[i].triangle));
+              same = hits[i].valid() == e[i].valid() &&
+                     (!e[i].valid() || (hits[i].t == e[i].t && hits[i].triangle == e[i].triangle));
             whole |= same;
           }
           if (!whole) ++failed;

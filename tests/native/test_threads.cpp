@@ -1,7 +1,7 @@
 // How many threads a batch query or a render runs on (threads.h): 0 for all cores, more than the
 // machine's cores clamped to them, negative refused.
-#include "raylab/batch.h"
-#include "raylab/threads.h"
+#include "batch.h"
+#include "threads.h"
 
 #include <gtest/gtest.h>
 #include <tbb/info.h>

@@ -1,5 +1,5 @@
 // intersect_watertight4 and intersect_watertight8 against intersect_watertight, lane by lane and bit for bit.
-#include "raylab/bvh_simd.h"
+#include "raylab/triangle_packets.h"
 
 #include <gtest/gtest.h>
 
@@ -41,7 +41,7 @@ FilterReplay replay_filter(const WatertightRay& r, const glm::vec3& p0, const gl
                   std::max(std::abs(ay), std::max(std::abs(by), std::abs(cy)));
   const float z = std::max(std::abs(a[r.kz]), std::max(std::abs(b[r.kz]), std::abs(c[r.kz])));
   const float bound = watertight_filter_bound(s, z);
-  const bool negative = u < -bound || v < -bound || w < -bound, positive = u > bound || v > bound || w > bound;
+  const bool negative = u < -bound || v < -bound || w<-bound, positive = u> bound || v > bound || w > bound;
   return {!(negative && positive), !((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0))};
 }
 
@@ -84,7 +84,8 @@ class Cases {
     glm::vec3 target;
     switch (integer(0, 6)) {
       case 0: target = base[integer(0, 2)]; break;
-      case 1: case 2: {
+      case 1:
+      case 2: {
         const int i = integer(0, 2), j = (i + 1) % 3;
         target = base[i] + fraction() * (base[j] - base[i]);
         break;
@@ -112,7 +113,8 @@ class Cases {
     // The origin and direction.
     Ray& ray = c.ray;
     switch (integer(0, 9)) {
-      case 0: case 1: {  // on the triangle's plane (to rounding), aimed along it
+      case 0:
+      case 1: {  // on the triangle's plane (to rounding), aimed along it
         const float a = 3.0f * unit(), b = 3.0f * unit();
         ray.origin = clamp(base[0] + a * (base[1] - base[0]) + b * (base[2] - base[0]));
         ray.direction = rng_() % 2 ? target - ray.origin : base[1] - base[0];
@@ -167,9 +169,9 @@ class Cases {
         case 0: q[0] = base[j], q[1] = base[i], q[2] = across; break;  // shares edge i-j, same facing
         case 1: q[0] = base[i], q[1] = base[j], q[2] = across; break;  // shares edge i-j, opposite facing
         case 2: q[0] = base[i], q[1] = triangle_point(), q[2] = triangle_point(); break;  // shares a vertex
-        case 3: q[0] = base[j], q[1] = base[k], q[2] = base[i]; break;  // the base, rotated
-        case 4: q[0] = base[i], q[1] = base[k], q[2] = base[j]; break;  // the base, reversed
-        case 5: {  // tiny, around the target
+        case 3: q[0] = base[j], q[1] = base[k], q[2] = base[i]; break;                    // the base, rotated
+        case 4: q[0] = base[i], q[1] = base[k], q[2] = base[j]; break;                    // the base, reversed
+        case 5: {                                                                         // tiny, around the target
           const float s = std::ldexp(scale_, -integer(10, 40));
           for (int m = 0; m < 3; ++m) q[m] = clamp(target + s * random3());
           break;
@@ -217,7 +219,9 @@ class Cases {
     const float mantissa = 1.0f + fraction();
     return unit() < 0.0f ? -magnitude * mantissa : magnitude * mantissa;
   }
-  static glm::vec3 clamp(const glm::vec3& p) { return glm::clamp(p, glm::vec3(-kMaxCoordinate), glm::vec3(kMaxCoordinate)); }
+  static glm::vec3 clamp(const glm::vec3& p) {
+    return glm::clamp(p, glm::vec3(-kMaxCoordinate), glm::vec3(kMaxCoordinate));
+  }
   glm::vec3 triangle_point() { return clamp(centre_ + scale_ * random3()); }
 
   // Makes a triangle near-degenerate, a needle, collinear, a point, or flat across an axis.
@@ -232,7 +236,8 @@ class Cases {
       case 2: p[2] = clamp(p[0] + 0.5f * (p[1] - p[0])); break;
       case 3: p[1] = p[2] = p[0]; break;
       case 4: p[1] = p[0]; break;
-      case 5: case 6: {
+      case 5:
+      case 6: {
         const int axis = integer(0, 2);
         p[1][axis] = p[2][axis] = p[0][axis];
         break;
@@ -270,15 +275,15 @@ class Cases {
 // The 8-lane test from code built for x86-64-v2: its own AVX2 function, called only after
 // cpu_has_avx2().
 __attribute__((target("avx2"), noinline)) int watertight8(const WatertightRay& w, const TrianglePacket& a,
-                                                         const TrianglePacket& b, float tmin, float tmax, float* t,
-                                                         float* u, float* v) {
+                                                          const TrianglePacket& b, float tmin, float tmax, float* t,
+                                                          float* u, float* v) {
   const Watertight8Ray w8(w);
   return intersect_watertight8(w8, a, b, 0xff, tmin, tmax, t, u, v);
 }
 
 // The 8-lane any-hit test, the same way.
 __attribute__((target("avx2"), noinline)) int watertight8_any(const WatertightRay& w, const TrianglePacket& a,
-                                                             const TrianglePacket& b, float tmin, float tmax) {
+                                                              const TrianglePacket& b, float tmin, float tmax) {
   const Watertight8Ray w8(w);
   float t[8], u[8], v[8];
   return intersect_watertight8<true>(w8, a, b, 0xff, tmin, tmax, t, u, v);
@@ -372,8 +377,7 @@ TEST(TriangleIntersection, SimdLanesGiveTheScalarResultBitForBit) {
                << hex(c.ray.direction) << ", triangle " << hex(p[0]) << " " << hex(p[1]) << " " << hex(p[2])
                << ", tmin " << hex(tmin) << " tmax " << hex(tmax) << ": scalar "
                << (hit ? "hit t " + hex(h.t) + " u " + hex(h.u) + " v " + hex(h.v) : std::string("miss")) << ", SIMD "
-               << (simd_hit ? "hit t " + hex(st) + " u " + hex(su) + " v " + hex(sv) : std::string("miss"))
-               << "\n";
+               << (simd_hit ? "hit t " + hex(st) + " u " + hex(su) + " v " + hex(sv) : std::string("miss")) << "\n";
       }
     };
     const auto [tmin, tmax] = cases.window();
@@ -390,9 +394,10 @@ TEST(TriangleIntersection, SimdLanesGiveTheScalarResultBitForBit) {
       compare(below, h.t, false);
     }
   }
-  std::printf("[ counts   ] %ld lanes compared, %ld hits (%ld at a denormal t); first windows: %ld lanes passed to "
-              "double precision, %ld of them hits where the float edge functions have opposite signs\n",
-              lanes, hits, denormal_hits, to_double, float_leaks);
+  std::printf(
+      "[ counts   ] %ld lanes compared, %ld hits (%ld at a denormal t); first windows: %ld lanes passed to "
+      "double precision, %ld of them hits where the float edge functions have opposite signs\n",
+      lanes, hits, denormal_hits, to_double, float_leaks);
   std::printf("[ counts   ] any hit: %ld packets, %ld of them hit\n", any_packets, any_hits);
   EXPECT_EQ(mismatches, 0) << mismatches << " lanes differ from the scalar test; the first:\n" << report.str();
   EXPECT_EQ(any_mismatches, 0) << any_mismatches << " any-hit packets differ from the scalar test:\n" << report.str();
@@ -439,7 +444,8 @@ TEST(TriangleIntersection, SimdLaneKeepsAHitAtADenormalTOnTheWindowsEdge) {
     }
     float t[4], u[4], v[4];
     const Watertight4Ray w4(w);
-    ASSERT_EQ(intersect_watertight4(w4, packet, tmin, tmax, t, u, v), 0xf) << "tmin " << hex(tmin) << " tmax " << hex(tmax);
+    ASSERT_EQ(intersect_watertight4(w4, packet, tmin, tmax, t, u, v), 0xf)
+        << "tmin " << hex(tmin) << " tmax " << hex(tmax);
     for (int lane = 0; lane < 4; ++lane) {
       EXPECT_EQ(std::bit_cast<uint32_t>(t[lane]), std::bit_cast<uint32_t>(h.t));
       EXPECT_EQ(std::bit_cast<uint32_t>(u[lane]), std::bit_cast<uint32_t>(h.u));

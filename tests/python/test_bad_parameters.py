@@ -152,6 +152,9 @@ RENDER_SETTINGS = {
     "shadows array": (dict(shadows=np.zeros(500)),
                       "settings['shadows'] must be True or False, got a value of type numpy.ndarray"),
     "fixed_epsilon str": (dict(fixed_epsilon="1e-4"), "settings['fixed_epsilon'] must be a real number, got '1e-4'"),
+    "max_depth renamed": (dict(max_depth=2), "settings: max_depth is now max_recursion (the octree's max_depth is a "
+                          "build setting)"),
+    "max_recursion negative": (dict(max_recursion=-1), "settings: max_recursion must be 0 to 64, got -1"),
 }
 CAMERA = dict(matrix_world=np.eye(4), resolution_x=4, resolution_y=4)
 

@@ -40,7 +40,7 @@ def render(materials, lights, settings=None):
     """make_scene's floor and boxes, 24 x 18 pixels, the camera looking down at them."""
     camera = dict(type="PERSP", matrix_world=np.diag([100.0, 100.0, 100.0, 1.0]) @ look_at((3.0, -4.0, 3.0), (0, 0, 0)),
                   lens=30.0, resolution_x=24, resolution_y=18, clip_start=0.001, clip_end=1e5)
-    return raylab.render(make_scene(), camera, lights, materials, dict(max_depth=4, **(settings or {})))
+    return raylab.render(make_scene(), camera, lights, materials, dict(max_recursion=4, **(settings or {})))
 
 
 def light(kind, **extra):

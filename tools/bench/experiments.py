@@ -74,7 +74,7 @@ def render_once(V, T, structure, camera, lights, materials, **settings):
     scene = raylab.Scene(structure=structure, max_depth=6, leaf_size=8)
     scene.add_instance(scene.add_mesh(V, T), np.eye(4), material=0)
     scene.commit()
-    base = dict(super_sampling=1, max_depth=3, shadows=True, background=(0.05, 0.05, 0.05),
+    base = dict(super_sampling=1, max_recursion=3, shadows=True, background=(0.05, 0.05, 0.05),
                 ambient=(1.0, 1.0, 1.0), threads=0)
     return raylab.render(scene, camera, lights, materials, base | settings)
 
@@ -236,7 +236,7 @@ def run_self_hits(config):
         scene = raylab.Scene(structure="bvh")
         scene.add_instance(scene.add_mesh(V, T), place, material=0)
         scene.commit()
-        base = dict(super_sampling=1, max_depth=1, background=(0, 0, 0), ambient=(1, 1, 1))
+        base = dict(super_sampling=1, max_recursion=1, background=(0, 0, 0), ambient=(1, 1, 1))
         reference = raylab.render(scene, camera, lights, materials, base | dict(shadows=False))
         unshadowed, on_sphere = reference.image, reference.instance >= 0
         lit = on_sphere & (unshadowed[..., :3].sum(-1) > 3 * 0.05 * 0.8 + 1e-3)

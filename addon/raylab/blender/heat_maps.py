@@ -183,7 +183,7 @@ def new_job(context, time_limit=None):
                            super_sampling=1, time_limit=limit, cost_rays=COST_RAYS)
     # The maps count camera rays only: shadow and reflection rays would be traced for nothing (a shadow
     # ray per lit pixel and light, each as dear as a camera ray under brute force).
-    job.settings.update(shadows=False, max_depth=0)
+    job.settings.update(shadows=False, max_recursion=0)
     job.render_size = api.image_size(exported.camera)  # the probe's pixels, for the record
     return job
 

@@ -216,7 +216,7 @@ def build_scene(exported, **build):
 def render_settings(exported, props, super_sampling=None, cost_rays=api.COST_RAYS[0]):
     """The renderer's settings from scene.raylab_render; the world colour is background and ambient;
     cost_rays (api.COST_RAYS) says which rays the cost passes count."""
-    return dict(super_sampling=super_sampling or props.super_sampling, max_depth=props.max_recursion,
+    return dict(super_sampling=super_sampling or props.super_sampling, max_recursion=props.max_recursion,
                 shadows=props.shadows, background=exported.background, ambient=exported.background,
                 robust_offset=props.robust_offset, shadow_terminator=props.shadow_terminator,
                 tile_size=props.tile_size, threads=0, cost_rays=cost_rays)

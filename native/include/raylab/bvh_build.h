@@ -3,6 +3,7 @@
 #pragma once
 
 #include "raylab/geometry.h"
+#include "raylab/huge_array.h"
 
 #include <cstdint>
 #include <cstdlib>
@@ -32,12 +33,9 @@ struct BvhNode {
 };
 static_assert(sizeof(BvhNode) == 32);
 
-void* allocate_huge(size_t bytes);  // throws std::bad_alloc; free with std::free
-
 // An allocator for arrays a build sizes once and then writes: on huge pages when large (see
-// allocate_huge), elements default-initialised (left as they are) rather than zeroed first. For the
-// binary tree's two arrays: build time 0.97-0.98x on the 1.3M sphere and the 1.6M dragon, 0.99x on
-// dragon (one thread, minimum of 3 x 9 builds), half the page faults.
+// allocate_huge), elements default-initialised (left as they are) rather than zeroed first: for the
+// binary tree's two arrays, half the page faults.
 template <class T>
 struct BuildAllocator {
   using value_type = T;
@@ -82,19 +80,5 @@ BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32
 
 // The bytes build_binary_bvh needs at most for n primitives, for checking a memory budget first.
 size_t binary_bvh_build_bytes(size_t n);
-
-// Large arrays a build writes once (trivial types, left uninitialised), on transparent huge pages
-// where the kernel allows it: a build touches every page once, and 4 KiB page faults cost a fifth
-// of it.
-struct FreeDeleter {
-  void operator()(void* p) const { std::free(p); }
-};
-template <class T>
-using HugeArray = std::unique_ptr<T[], FreeDeleter>;
-template <class T>
-HugeArray<T> make_huge_array(size_t n) {
-  static_assert(std::is_trivially_default_constructible_v<T> && std::is_trivially_destructible_v<T>);
-  return HugeArray<T>(static_cast<T*>(allocate_huge(n * sizeof(T))));
-}
 
 }  // namespace raylab

@@ -37,7 +37,7 @@ class Camera {
  public:
   explicit Camera(const CameraSettings& settings);  // validates
 
-  int width() const { return width_; }    // resolution * percentage / 100, as Blender rounds it
+  int width() const { return width_; }  // resolution * percentage / 100, as Blender rounds it
   int height() const { return height_; }
 
   // The world ray through raster point (x, y): x in [0, width] to the right, y in [0, height]

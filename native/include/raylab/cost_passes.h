@@ -11,7 +11,7 @@ enum class CostRays { All, Primary };
 
 struct CostRaysInfo {
   CostRays value;
-  const char* name;         // the settings key's value in Python
+  const char* name;  // the settings key's value in Python
   const char* label;
   const char* description;  // for tooltips
 };

@@ -14,6 +14,7 @@
 #include "raylab/structure.h"
 
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -38,5 +39,7 @@ bool refit_binary_bvh(BinaryBvh& bvh, std::span<const Bounds> prim_bounds);
 // probability that a ray through the root enters it). 0 for an empty tree; a root of zero area
 // (every primitive on one point or line) weighs every node 1.
 double sah_cost(const BinaryBvh& bvh, uint32_t leaf_block);
+// A BVH structure's sah_cost over its wide tree (Bvh::sah_cost); nullopt for the other kinds.
+std::optional<double> structure_sah_cost(const Structure& s);
 
 }  // namespace raylab

@@ -21,19 +21,19 @@ namespace raylab {
 
 struct RenderSettings {
   int super_sampling = 1;  // NxN stratified samples per pixel, 1..4
-  int max_depth = 3;       // reflection/refraction bounces after the primary hit
+  int max_recursion = 3;   // reflection/refraction bounces after the primary hit
   bool shadows = true;
   glm::vec3 background{0.05f};
-  glm::vec3 ambient{1.0f};  // scaled by each material's `ambient` and diffuse colour
-  bool robust_offset = true;     // Wächter-Binder offset (ray_offset.h); false: fixed epsilon
-  float fixed_epsilon = 1e-4f;   // along the normal, when robust_offset is false
+  glm::vec3 ambient{1.0f};      // scaled by each material's `ambient` and diffuse colour
+  bool robust_offset = true;    // Wächter-Binder offset (ray_offset.h); false: fixed epsilon
+  float fixed_epsilon = 1e-4f;  // along the normal, when robust_offset is false
   // Smooth-shaded hits: shadow rays start from the curved surface the shading normals imply (Hanika
   // 2021), and light behind the flat face but in front of the shading normal counts, so the
   // terminator follows the smooth normals instead of the facets.
   bool shadow_terminator = true;
-  int threads = 0;               // 0: all
+  int threads = 0;  // 0: all
   int tile_size = 32;
-  CostRays cost_rays = CostRays::All;  // which of a pixel's rays RenderResult::pixel_work counts
+  CostRays cost_rays = CostRays::All;           // which of a pixel's rays RenderResult::pixel_work counts
   size_t memory_budget = kDefaultMemoryBudget;  // for the render's buffers: see require_render_memory
 
   void validate() const;  // throws std::invalid_argument naming the bad setting

@@ -75,7 +75,7 @@ class Scene {
   std::shared_ptr<const std::vector<glm::vec3>> shading_normals(uint32_t mesh) const;  // null: flat
   // After commit(); the scene holds it until the mesh is replaced or the settings change.
   const Structure& structure(uint32_t m) const;
-  Bounds bounds() const;                          // world bounds of every instance
+  Bounds bounds() const;  // world bounds of every instance
   // Of the last commit (0 before the first).
   size_t memory_bytes() const;  // structures + top level
   double build_seconds() const;
@@ -94,8 +94,8 @@ void validate_shading_normals(const TriangleMesh& mesh, std::span<const glm::vec
 // (0: all cores). `stats` may be null; `per_ray` as for a Structure's.
 void intersect_closest(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
                        int threads = 0, std::span<TraversalStats> per_ray = {});
-void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
+void intersect_any(const Scene& scene, std::span<const Ray> rays, std::span<uint8_t> occluded, TraversalStats* stats,
+                   int threads = 0, std::span<TraversalStats> per_ray = {});
 void intersect_with_status(const Scene& scene, std::span<const Ray> rays, std::span<Hit> hits,
                            std::span<RayStatus> statuses, int threads = 0);
 

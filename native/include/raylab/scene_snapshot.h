@@ -26,8 +26,8 @@ struct Instance {
 // change them: a commit costs what changed.
 struct SceneMesh {
   MeshPtr mesh;
-  Bounds bounds;                                // object space
-  std::shared_ptr<const Structure> structure;  // null while stale (only in the edited state)
+  Bounds bounds;                                                  // object space
+  std::shared_ptr<const Structure> structure;                     // null while stale (only in the edited state)
   std::shared_ptr<const std::vector<glm::vec3>> shading_normals;  // 3 per triangle; null: flat
   // Only in the edited state, while stale after Scene::refit_mesh: the structure to refit (refit.h)
   // instead of building anew.
@@ -54,13 +54,13 @@ struct SceneStory {
     RayStory story;
   };
   Ray ray;
-  std::vector<StoryBox> top_boxes;  // in test order
+  std::vector<StoryBox> top_boxes;   // in test order
   std::vector<StoryNode> top_nodes;  // in visit order
   std::vector<Part> instances;       // in query order
   Hit hit;                           // world t; hit.instance set
   TraversalStats stats;              // exactly what closest() counts for this ray
   RayStatus status = RayStatus::MissedRoot;
-  bool ignored = false;              // no instance's structure took the ray
+  bool ignored = false;  // no instance's structure took the ray
 
   void finish();
 };
@@ -84,12 +84,12 @@ class SceneSnapshot {
   const TriangleMesh& mesh(uint32_t m) const;
   const Structure& structure(uint32_t m) const;
   std::shared_ptr<const Structure> structure_ptr(uint32_t m) const;  // keeps it alive past the snapshot
-  const std::vector<glm::vec3>* shading_normals(uint32_t m) const;  // null: flat (face normals)
-  Bounds bounds() const;        // world bounds of every instance
-  size_t memory_bytes() const;  // structures + top level
-  double build_seconds() const { return build_seconds_; }  // of the commit that made it
-  uint64_t generation() const { return generation_; }  // the count of scene edits it includes
-  TopLevelUpdate top_level_update() const { return top_update_; }  // what the commit that made it did
+  const std::vector<glm::vec3>* shading_normals(uint32_t m) const;   // null: flat (face normals)
+  Bounds bounds() const;                                             // world bounds of every instance
+  size_t memory_bytes() const;                                       // structures + top level
+  double build_seconds() const { return build_seconds_; }            // of the commit that made it
+  uint64_t generation() const { return generation_; }                // the count of scene edits it includes
+  TopLevelUpdate top_level_update() const { return top_update_; }    // what the commit that made it did
   double top_level_sah_cost() const;  // sah_cost (refit.h) of the top level, one instance per leaf
 
  private:

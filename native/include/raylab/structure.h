@@ -29,18 +29,24 @@ struct BuildSettings {
 
   StructureKind kind = StructureKind::Bvh;
   int max_depth = kAutoDepth;  // octree: depth 0 is the root alone, or kAutoDepth
-  int leaf_size = 8;   // octree: split while a node holds more triangles than this; bvh: max per leaf
+  int leaf_size = 8;           // octree: split while a node holds more triangles than this; bvh: max per leaf
   TriangleTest triangle_test = TriangleTest::Watertight;
   size_t memory_budget = kDefaultMemoryBudget;  // a build that would need more stops with BuildError
 
-  void validate() const;  // throws std::invalid_argument naming the bad setting
+  // The one place that decides whether settings are acceptable (the depth limit, leaf size, memory
+  // budget): build_structure and the Scene call it where settings enter the core, the bindings only
+  // convert types. Throws std::invalid_argument naming the bad setting.
+  void validate() const;
+  // validate()'s refusal of a negative max_depth. The bindings give it for -1 as well: from Python only
+  // the name kAutoDepthName means auto.
+  [[noreturn]] static void refuse_negative_depth(int depth);
 };
 
 class Structure;
 
 // One row per structure kind: everything the bindings, the add-on and the benchmark need to know about
 // it, read from here (the Python module exports the table as _raylab.STRUCTURES). Adding a structure
-// is its own header and source, an enum value above, and a row in kStructures (structure.cpp).
+// is its own header and source, an enum value above, and a row in kStructures (structure_table.cpp).
 struct StructureInfo {
   StructureKind kind;
   const char* name;         // the API's name, e.g. "bvh"
@@ -157,10 +163,10 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
 // Batch queries, parallel over rays (TBB) on at most `threads` threads (0: all cores). `stats` may be
 // null: then nothing is counted. `per_ray`, one per ray or empty, gets each ray's own counters (and
 // `stats` their sum).
-void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
-                       TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
-void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded,
-                   TraversalStats* stats, int threads = 0, std::span<TraversalStats> per_ray = {});
+void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
+                       int threads = 0, std::span<TraversalStats> per_ray = {});
+void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded, TraversalStats* stats,
+                   int threads = 0, std::span<TraversalStats> per_ray = {});
 // Closest hits and each ray's status (what its story would say, without recording the story): the
 // probe's fan of thousands of rays.
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,

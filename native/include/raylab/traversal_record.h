@@ -27,11 +27,11 @@ struct TraversalStats {
 // add-on's tables all go through this list (exported as _raylab.COUNTERS); a new counter is a field
 // above, a row here and the recorder call that counts it.
 struct CounterInfo {
-  const char* name;                 // the key in Python dicts
+  const char* name;  // the key in Python dicts
   uint64_t TraversalStats::*field;
-  const char* label;                // for tables
-  const char* description;          // for tooltips
-  bool object_work;                 // counted inside an object's structure (a Scene adds it up per instance)
+  const char* label;        // for tables
+  const char* description;  // for tooltips
+  bool object_work;         // counted inside an object's structure (a Scene adds it up per instance)
 };
 
 inline constexpr CounterInfo kCounters[] = {
@@ -75,10 +75,10 @@ struct StatsRecord {
 
 // What happened to one ray, in the four cases VRT's levels show.
 enum class RayStatus {
-  MissedRoot,         // ignored: missed the AABB / the root node; no triangle was tested
-  MissedNodes,        // hit the root box but entered no node that holds triangles
-  MissedTriangles,    // entered nodes holding triangles, tested them, hit none
-  HitObject,          // hit a triangle of the object
+  MissedRoot,       // ignored: missed the AABB / the root node; no triangle was tested
+  MissedNodes,      // hit the root box but entered no node that holds triangles
+  MissedTriangles,  // entered nodes holding triangles, tested them, hit none
+  HitObject,        // hit a triangle of the object
 };
 
 // The names, in the enum's order (rising priority: over several objects the highest one is the ray's).
@@ -112,9 +112,9 @@ struct StoryTriangle {
 
 struct RayStory {
   Ray ray;
-  std::vector<StoryBox> boxes;          // in test order
-  std::vector<StoryNode> nodes;         // in visit order
-  std::vector<StoryTriangle> triangles; // in test order
+  std::vector<StoryBox> boxes;           // in test order
+  std::vector<StoryNode> nodes;          // in visit order
+  std::vector<StoryTriangle> triangles;  // in test order
   Hit hit;
   TraversalStats stats;
   RayStatus status = RayStatus::MissedRoot;
@@ -128,7 +128,10 @@ struct StoryRecord {
   static constexpr bool kActive = true;
   RayStory& story;
   void ray() { ++story.stats.rays; }
-  void ignored() { ++story.stats.rays_ignored; story.ignored = true; }
+  void ignored() {
+    ++story.stats.rays_ignored;
+    story.ignored = true;
+  }
   void box(uint32_t node, const Bounds& b, int depth, bool hit, float t_entry) {
     ++story.stats.box_tests;
     story.boxes.push_back({node, b, depth, hit, t_entry});

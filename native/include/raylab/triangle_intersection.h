@@ -64,12 +64,8 @@ struct WatertightRay {
     // Branch-free: on incoherent rays the axis choice and the swap are coin flips, and the quotients
     // run as three packed divisions instead of six scalar ones (each lane rounds as the scalar one).
     // GCC compiled glm's operator[] (a switch) and the axis choice's ternaries to branches, so the
-    // components are read from an array and the choice is arithmetic: BVH/Embree of this over the
-    // branchy form 1.03-1.08 on random rays, 0.99-1.05 on camera rays (goathead, dragon, bunny_hr, one
-    // core, interleaved runs). Taking the float quotients from the double ones (the double quotient
-    // of two floats, rounded to float, is the float quotient: Figueroa 1995) to save the float
-    // division ran at 0.98-1.02, and dropping the double divisions altogether (timing only) gained at
-    // most 2 %: the divisions are off the critical path, so they stay as they are, and not lazy.
+    // components are read from an array and the choice is arithmetic. The divisions are off the
+    // critical path, so they stay as they are, and not lazy (docs/bench/history.md).
     const float dd[3] = {d.x, d.y, d.z};
     const float ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
     const int x_over_y = ax > ay, x_over_z = ax > az, y_over_z = ay > az;
@@ -105,9 +101,7 @@ struct TriangleHit {
 // quotient, product and difference), and an edge function cx*by - cy*bx by at most about
 // 24u(s + 2z)s (pbrt-v4's gamma(n) accounting); 32u leaves room for the bound's own rounding, and the
 // FLT_MIN term for products that underflow.
-inline float watertight_filter_bound(float s, float z) {
-  return (32.0f * 0x1p-24f * (s + 2.0f * z)) * s + 0x1p-126f;
-}
+inline float watertight_filter_bound(float s, float z) { return (32.0f * 0x1p-24f * (s + 2.0f * z)) * s + 0x1p-126f; }
 
 // The decision, in double precision: sheared coordinates from the float vertices and origin (their
 // differences are exact in double unless their magnitudes differ by more than 2^29), edge functions
@@ -121,9 +115,7 @@ inline bool intersect_watertight_exact(const WatertightRay& r, const glm::vec3& 
                                        const glm::vec3& p2, float tmin, float tmax, TriangleHit& out) {
   double x[3], y[3], z[3];
   // Arrays indexed by the ray's axes: glm's operator[] is a switch, which GCC compiles to branches
-  // that mispredict on the first triangle of each incoherent ray. BVH/Embree of this over glm's
-  // indexing 1.00-1.03 on random rays (camera 0.97-1.01; goathead, dragon, bunny_hr, one core,
-  // interleaved runs), and 1.010-1.016 on random closest hit in one process with warm caches.
+  // that mispredict on the first triangle of each incoherent ray.
   const float p[3][3] = {{p0.x, p0.y, p0.z}, {p1.x, p1.y, p1.z}, {p2.x, p2.y, p2.z}};
   const float o[3] = {r.origin.x, r.origin.y, r.origin.z};
   double sx = 0.0, sy = 0.0;
@@ -156,8 +148,8 @@ inline bool intersect_watertight_exact(const WatertightRay& r, const glm::vec3& 
 // filter rejects the triangles that certainly miss (two edge functions of opposite sign, each beyond
 // its error bound: Shewchuk's filtered predicates); the rest are decided in double precision by
 // intersect_watertight_exact, so the answer does not depend on which path, or which SIMD lane, ran.
-inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, const glm::vec3& p1,
-                                 const glm::vec3& p2, float tmin, float tmax, TriangleHit& out) {
+inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2,
+                                 float tmin, float tmax, TriangleHit& out) {
   const glm::vec3 a = p0 - r.origin;
   const glm::vec3 b = p1 - r.origin;
   const glm::vec3 c = p2 - r.origin;
@@ -178,8 +170,8 @@ inline bool intersect_watertight(const WatertightRay& r, const glm::vec3& p0, co
   return intersect_watertight_exact(r, p0, p1, p2, tmin, tmax, out);
 }
 
-inline bool intersect_moller_trumbore(const Ray& ray, const glm::vec3& p0, const glm::vec3& p1,
-                                      const glm::vec3& p2, float tmin, float tmax, TriangleHit& out) {
+inline bool intersect_moller_trumbore(const Ray& ray, const glm::vec3& p0, const glm::vec3& p1, const glm::vec3& p2,
+                                      float tmin, float tmax, TriangleHit& out) {
   const glm::vec3 e1 = p1 - p0;
   const glm::vec3 e2 = p2 - p0;
   const glm::vec3 p = glm::cross(ray.direction, e2);
@@ -217,9 +209,8 @@ struct TriangleTester {
     const glm::vec3& p0 = mesh.vertices[idx.x];
     const glm::vec3& p1 = mesh.vertices[idx.y];
     const glm::vec3& p2 = mesh.vertices[idx.z];
-    return test == TriangleTest::Watertight
-               ? intersect_watertight(watertight, p0, p1, p2, ray.tmin, tmax, out)
-               : intersect_moller_trumbore(ray, p0, p1, p2, ray.tmin, tmax, out);
+    return test == TriangleTest::Watertight ? intersect_watertight(watertight, p0, p1, p2, ray.tmin, tmax, out)
+                                            : intersect_moller_trumbore(ray, p0, p1, p2, ray.tmin, tmax, out);
   }
 };
 

@@ -1,8 +1,8 @@
 // Many rays at once: the one parallel loop behind every batch query (structures and scenes).
 #pragma once
 
-#include "raylab/threads.h"
 #include "raylab/traversal_record.h"
+#include "threads.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>

@@ -2,7 +2,7 @@
 #pragma once
 
 #include "raylab/structure.h"
-#include "raylab/triangle_loop.h"
+#include "triangle_loop.h"
 
 namespace raylab {
 

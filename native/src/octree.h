@@ -9,11 +9,11 @@
 // (Octree::for_packets). Built in src/octree.cpp.
 #pragma once
 
-#include "raylab/box_intersection.h"
-#include "raylab/bvh_build.h"
-#include "raylab/bvh_simd.h"
+#include "box_intersection.h"
+#include "raylab/huge_array.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_loop.h"
+#include "raylab/triangle_packets.h"
+#include "triangle_loop.h"
 
 #include <immintrin.h>
 
@@ -37,9 +37,7 @@ struct OctreeNode {
   uint32_t triangle_count() const { return bits & ~kLeaf; }
   uint32_t child_mask() const { return bits & 0xffu; }
   // The node index of the child in `octant`, which must exist.
-  uint32_t child(int octant) const {
-    return first + uint32_t(std::popcount(child_mask() & ((1u << octant) - 1u)));
-  }
+  uint32_t child(int octant) const { return first + uint32_t(std::popcount(child_mask() & ((1u << octant) - 1u))); }
 };
 
 // A triangle's three corners as 16-byte rows (x, y, z, 0), one triangle after another in index
@@ -78,11 +76,9 @@ static_assert(sizeof(CornerRows) == 48);
 // pad, the NaN rules and the story's boxes are unchanged: the children are still box-tested, only
 // without repeating the work they share. (Revelles' successor table, which enters only the children
 // the ray pierces, would visit fewer than the padded boxes the exactness contract requires.)
-// Measured on one core under load, octree / BVH camera rays (closest hit), median of 9 interleaved
-// pairs, max_depth auto: the scalar slabs against eight box tests, bunny.obj 0.19 -> 0.25, dragon.obj
-// 0.18 -> 0.23, koala.obj 0.15 -> 0.17; these SSE slabs (with the walk entering the nearest child
-// without the stack, Octree::walk) against the scalar slabs, dragon.obj 0.16 -> 0.28, bunny_hr.obj
-// 0.39 (0.18 to 0.21 in the last full benchmark), the same box and triangle tests per ray.
+// Against eight scalar box tests, and then with the walk entering the nearest child without the stack
+// (Octree::walk), the octree's speed relative to the BVH rose on every mesh measured
+// (docs/bench/history.md).
 struct OctantRay {
   __m128 origin, inv_dir, pad, tmin;  // lane 3 unused (zero)
 
@@ -172,23 +168,28 @@ class Octree final : public StructureBase<Octree> {
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
     if (settings_.triangle_test != TriangleTest::Watertight)
-      return closest_over_leaves(*mesh_, settings_.triangle_test, ray, hit, record, [&](auto limit, auto visit) {
-        walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
-      }, Mailbox{});
+      return closest_over_leaves(
+          *mesh_, settings_.triangle_test, ray, hit, record,
+          [&](auto limit, auto visit) {
+            walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
+          },
+          Mailbox{});
     record.ray();
     const TriangleTester tester(ray, TriangleTest::Watertight);
     const Watertight4Ray ray4(tester.watertight);
     Hit best = initial_hit(ray);
     bool found = false;
     Mailbox mailbox;
-    walk(ray, record, [&] { return best.t; }, [&](const OctreeNode& leaf) {
-      return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
-        alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-        const int mask = test_packets<false>(tester, ray4, packets, lanes, best.t, t, u, v);
-        found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
-        return false;
-      });
-    });
+    walk(
+        ray, record, [&] { return best.t; },
+        [&](const OctreeNode& leaf) {
+          return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
+            alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
+            const int mask = test_packets<false>(tester, ray4, packets, lanes, best.t, t, u, v);
+            found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
+            return false;
+          });
+        });
     if (found) hit = best;
     return found;
   }
@@ -196,21 +197,26 @@ class Octree final : public StructureBase<Octree> {
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
     if (settings_.triangle_test != TriangleTest::Watertight)
-      return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, [&](auto limit, auto visit) {
-        walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
-      }, Mailbox{});
+      return any_over_leaves(
+          *mesh_, settings_.triangle_test, ray, record,
+          [&](auto limit, auto visit) {
+            walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
+          },
+          Mailbox{});
     record.ray();
     const TriangleTester tester(ray, TriangleTest::Watertight);
     const Watertight4Ray ray4(tester.watertight);
     bool occluded = false;
     Mailbox mailbox;
-    walk(ray, record, [&] { return ray.tmax; }, [&](const OctreeNode& leaf) {
-      return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
-        alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-        const int mask = test_packets<true>(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
-        return occluded = record_any_lanes(packets, lanes, mask, record);
-      });
-    });
+    walk(
+        ray, record, [&] { return ray.tmax; },
+        [&](const OctreeNode& leaf) {
+          return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
+            alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
+            const int mask = test_packets<true>(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
+            return occluded = record_any_lanes(packets, lanes, mask, record);
+          });
+        });
     return occluded;
   }
 
@@ -239,15 +245,10 @@ class Octree final : public StructureBase<Octree> {
 
   // The watertight test's leaf loop: the leaf's triangles this ray has not tested yet (mailbox.h),
   // in leaf order, up to kLeafLanes at a time in two packets, their corners gathered from corners_
-  // for the SIMD test of the BVH (bvh_simd.h; bit for bit the scalar test's results).
+  // for the SIMD test of the BVH (triangle_packets.h; bit for bit the scalar test's results).
   // `test(packets, lanes)` gets `lanes` real triangles (a packet's other lanes repeat its first) and
-  // returns true to stop the walk. Measured against the scalar loop through the mesh's index array
-  // (octree / BVH, closest hit, one core, CPU time, raylab_bench --cpu-time, two interleaved runs
-  // each; camera rays, then random): goathead 0.33 -> 0.38-0.43, 0.29-0.33 -> 0.43-0.47; bunny_hr
-  // 0.33-0.35 -> 0.39-0.40, 0.34-0.36 -> 0.48-0.50; dragon.obj 0.30-0.32 -> 0.44, 0.30-0.33 -> 0.42;
-  // icosphere:8 0.27-0.28 -> 0.31-0.32, 0.33 -> 0.45-0.46; armadillo 0.30-0.33 -> 0.42, 0.31-0.39 ->
-  // 0.38-0.41; koala 0.24 -> 0.37-0.38, 0.33-0.35 -> 0.45; the dragon at 1.6M triangles 0.26 -> 0.34,
-  // 0.36 -> 0.50. Memory: 48 bytes per triangle more (corners_), the same tree.
+  // returns true to stop the walk. Faster than the scalar loop through the mesh's index array on every
+  // mesh measured, for 48 bytes per triangle more (corners_; docs/bench/history.md).
   static constexpr int kLeafLanes = 8;
 
   template <class Test>
@@ -279,17 +280,16 @@ class Octree final : public StructureBase<Octree> {
   }
 
   // The first `lanes` triangles of `packets` against the ray, between tmin and `tmax`: the mask of
-  // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE). Measured
-  // (octree / BVH camera rays, closest hit, one core, CPU time, two interleaved runs each; dragon,
-  // goathead, koala): 8 lanes 0.38-0.39, 0.40-0.41, 0.31-0.36; 4 lanes 0.35-0.39, 0.36-0.40, 0.30-0.32.
-  // kAny: only the first lane hit (first_hit_lane, bvh_simd.h).
+  // those hit, and their t, u, v. One 8-lane test (AVX2), or one or two 4-lane tests (SSE): eight lanes
+  // were equal or slightly faster.
+  // kAny: only the first lane hit (first_hit_lane, triangle_packets.h).
   template <bool kAny>
   [[gnu::always_inline]] int test_packets(const TriangleTester& tester, const Watertight4Ray& ray4,
                                           const TrianglePacket* packets, int lanes, float tmax, float* t, float* u,
                                           float* v) const {
     if (leaf_lanes_ == 8)
-      return test_packets8<kAny>(tester.watertight, packets[0], lanes > 4 ? packets[1] : packets[0],
-                                 (1 << lanes) - 1, tester.ray.tmin, tmax, t, u, v);
+      return test_packets8<kAny>(tester.watertight, packets[0], lanes > 4 ? packets[1] : packets[0], (1 << lanes) - 1,
+                                 tester.ray.tmin, tmax, t, u, v);
     int mask = intersect_watertight4<kAny>(ray4, packets[0], tester.ray.tmin, tmax, t, u, v);
     // The unused lanes repeat their packet's first triangle, so an any-hit mask's first lane is real.
     if (lanes > 4 && !(kAny && mask != 0))
@@ -300,8 +300,8 @@ class Octree final : public StructureBase<Octree> {
   // Not inlined: the walk is compiled for SSE, this alone for AVX2.
   template <bool kAny>
   __attribute__((target("avx2"), noinline)) static int test_packets8(const WatertightRay& ray, const TrianglePacket& a,
-                                                                 const TrianglePacket& b, int lanes, float tmin,
-                                                                 float tmax, float* t, float* u, float* v) {
+                                                                     const TrianglePacket& b, int lanes, float tmin,
+                                                                     float tmax, float* t, float* u, float* v) {
     const Watertight8Ray ray8(ray);
     return intersect_watertight8<kAny>(ray8, a, b, lanes, tmin, tmax, t, u, v);
   }
@@ -360,7 +360,8 @@ class Octree final : public StructureBase<Octree> {
         const OctreeNode node = nodes_[entry.node];
         if (node.leaf()) {
           if (visit_leaf(node)) return;
-        } else if (enter_nearest_child(nodes_, entry, node, ray, octant_ray, near_octant, limit(), record, stack, top)) {
+        } else if (enter_nearest_child(nodes_, entry, node, ray, octant_ray, near_octant, limit(), record, stack,
+                                       top)) {
           continue;
         }
       }
@@ -378,12 +379,10 @@ class Octree final : public StructureBase<Octree> {
                                                          Recorder& record, StackEntry* stack, int& top) {
     alignas(16) float t[8];
     // The children (8 bytes each, side by side) are loaded while their boxes are tested: on large
-    // meshes the walk waits on memory. With the leaves' prefetch (prefetched): octree / BVH camera
-    // rays on dragon.obj, closest hit, best of 15 interleaved repetitions, two runs each on a machine
-    // loaded 7 times over, 0.26 and 0.19 -> 0.31 and 0.32.
+    // meshes the walk waits on memory (with the leaves' prefetch: faster on dragon.obj,
+    // docs/bench/history.md).
     _mm_prefetch(reinterpret_cast<const char*>(nodes.data() + node.first), _MM_HINT_T0);
-    const uint32_t hit =
-        intersect_octants(OctantBox::load(entry.lo, entry.hi), octant_ray, far, t) & node.child_mask();
+    const uint32_t hit = intersect_octants(OctantBox::load(entry.lo, entry.hi), octant_ray, far, t) & node.child_mask();
     const Bounds box = entry.box();
     const int depth = entry.depth + 1;
     if constexpr (Recorder::kActive) {
@@ -416,9 +415,9 @@ class Octree final : public StructureBase<Octree> {
   Bounds root_;
   bool automatic_depth_ = false;
   int max_depth_ = 0;
-  std::vector<OctreeNode> nodes_;     // breadth first: node 0 is the root
-  std::vector<uint32_t> triangles_;   // the leaves' runs, one after another
-  HugeArray<CornerRows> corners_;     // per triangle of the mesh, for the watertight leaf test
+  std::vector<OctreeNode> nodes_;    // breadth first: node 0 is the root
+  std::vector<uint32_t> triangles_;  // the leaves' runs, one after another
+  HugeArray<CornerRows> corners_;    // per triangle of the mesh, for the watertight leaf test
   int leaf_lanes_ = 4;
 };
 

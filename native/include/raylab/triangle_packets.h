@@ -1,54 +1,20 @@
-// The SIMD kernels of the wide BVH (and the octree's leaves): one ray against four boxes (SSE) or eight
-// (AVX2), and against four triangles (SSE) or eight (AVX2) at once.
-// The box kernel is a lane-wise transcription of intersect_box with the same NaN handling and the
-// same result bit for bit (the far widening applied once to the minimum, which rounds the same); the
-// triangle kernels are intersect_watertight's float filter, and the lanes it cannot reject are decided
-// in double precision by the scalar test's decision (exact_lane), or by its lane-wise transcription
-// (exact_packet, AVX2). All give bit-identical results: SIMD changes the speed, never the answer.
+// The triangle packets the BVH's and the octree's leaves share: four triangles' vertices, structure of
+// arrays, tested against one ray four (SSE) or eight (AVX2) at a time.
+// The triangle kernels are intersect_watertight's float filter, and the lanes it cannot reject are
+// decided in double precision by the scalar test's decision (exact_lane), or by its lane-wise
+// transcription (exact_packet, AVX2). All give bit-identical results: SIMD changes the speed, never the
+// answer.
 #pragma once
 
-#include "raylab/box_intersection.h"
 #include "raylab/triangle_intersection.h"
 
 #include <immintrin.h>
 
 #include <bit>
+#include <cstddef>
 #include <cstdint>
 
 namespace raylab {
-
-// The children of a W-wide node (4: 128 bytes, two cache lines; 8: 256 bytes, four). A leaf child
-// has count > 0 and its triangles in packets[child .. child + ceil(count / 4)); an inner child has
-// count 0 and its node index in `child`. Unused slots have count 0 and child kInvalidIndex; no box
-// value is missed by every ray under IEEE rules (a ray with tmax = inf reaches +inf), so the test
-// masks them out. Bounds are plain floats, not quantised, by measurement: a quantised 8-wide node
-// (128 bytes, half this one: a float origin and scale per axis, an 8-bit step per child bound, each q
-// chosen at build time so that the decoded origin + q * scale contains the float box, then this test
-// bit for bit on the decoded box, so exact as this one) ran at 0.71-0.95 of this node's speed on
-// goathead, whose tree fits in L2 (the decode lengthens each step's load-to-test chain), 0.85-1.08 on
-// dragon and bunny_hr, 0.90-1.06 on icosphere:8 (1.3M triangles) and 0.91-1.20 on the dragon at 1.6M
-// (any hit on random rays gained most): BVH/Embree, camera and random rays, closest and any hit, one
-// core, one binary switching layout per run, two interleaved rounds, medians of 9 (5 on the large
-// meshes). It gains only on trees far beyond the cache; Embree's default (not compact) BVH keeps
-// float nodes too.
-template <int W>
-struct alignas(64) BvhWideNode {
-  static constexpr int kWidth = W;
-  float lo[3][W];  // [axis][child]
-  float hi[3][W];
-  uint32_t child[W];
-  uint32_t count[W];
-
-  bool used(int i) const { return count[i] != 0 || child[i] != kInvalidIndex; }
-  bool leaf(int i) const { return count[i] != 0; }
-  Bounds bounds(int i) const {
-    return {{lo[0][i], lo[1][i], lo[2][i]}, {hi[0][i], hi[1][i], hi[2][i]}};
-  }
-};
-using Bvh4Node = BvhWideNode<4>;
-using Bvh8Node = BvhWideNode<8>;
-static_assert(sizeof(Bvh4Node) == 128);
-static_assert(sizeof(Bvh8Node) == 256);
 
 // Four triangles' vertices, structure of arrays, in leaf order. Unused lanes repeat the packet's
 // first triangle and carry kInvalidIndex; the leaf's count says which lanes are real.
@@ -59,15 +25,17 @@ struct alignas(16) TrianglePacket {
 static_assert(sizeof(TrianglePacket) == 160);
 
 // The triangle in lane `lane` of a run of consecutive packets (lanes 0-3 the first packet's).
-inline uint32_t packet_triangle(const TrianglePacket* packets, int lane) { return packets[lane / 4].triangle[lane % 4]; }
+inline uint32_t packet_triangle(const TrianglePacket* packets, int lane) {
+  return packets[lane / 4].triangle[lane % 4];
+}
 
 // One packet test's hits (`mask`, with their t, u, v) folded into `best` in lane order, as the scalar
 // loop folds them (closer(): the nearer t, a tie to the lower triangle index), after every tested lane is
 // recorded. The BVH's and the octree's leaves share it, so that their counters and stories agree.
 template <class Recorder>
 [[gnu::always_inline]] inline bool take_closest_lanes(const TrianglePacket* packets, int lanes, int mask,
-                                                      const float* t, const float* u, const float* v,
-                                                      Recorder& record, Hit& best) {
+                                                      const float* t, const float* u, const float* v, Recorder& record,
+                                                      Hit& best) {
   if constexpr (Recorder::kActive)
     for (int lane = 0; lane < lanes; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
   bool found = false;
@@ -88,105 +56,13 @@ template <class Recorder>
 // An any-hit packet test's lanes recorded as the scalar loop tests them: every triangle up to the first
 // hit. Returns whether a lane hit.
 template <class Recorder>
-[[gnu::always_inline]] inline bool record_any_lanes(const TrianglePacket* packets, int lanes, int mask, Recorder& record) {
+[[gnu::always_inline]] inline bool record_any_lanes(const TrianglePacket* packets, int lanes, int mask,
+                                                    Recorder& record) {
   if constexpr (Recorder::kActive) {
     const int tested = mask != 0 ? std::countr_zero(unsigned(mask)) + 1 : lanes;
     for (int lane = 0; lane < tested; ++lane) record.triangle(packet_triangle(packets, lane), (mask >> lane) & 1);
   }
   return mask != 0;
-}
-
-// The per-ray constants of the 4-box test.
-struct Box4Ray {
-  __m128 origin[3], inv_dir[3];
-  __m128 tmin, pad;
-
-  explicit Box4Ray(const BoxRay& r) : tmin(_mm_set1_ps(r.tmin)), pad(_mm_set1_ps(r.pad)) {
-    for (int a = 0; a < 3; ++a) {
-      origin[a] = _mm_set1_ps(r.origin[a]);
-      inv_dir[a] = _mm_set1_ps(r.inv_dir[a]);
-    }
-  }
-};
-
-// intersect_box on four boxes: returns the hit mask (bit i for child i, used slots only) and the
-// entry distances.
-// _mm_min_ps(a, b) is `a < b ? a : b` and _mm_max_ps(a, b) is `a > b ? a : b`, NaN giving b: exactly
-// the scalar swaps and selections, so NaN slab distances are ignored the same way.
-inline int intersect_box4(const Bvh4Node& node, const Box4Ray& r, float tmax, __m128& t_entry) {
-  __m128 t_near = r.tmin;
-  __m128 t_far = _mm_set1_ps(kInfinity);  // unscaled; see intersect_box8
-  for (int a = 0; a < 3; ++a) {
-    const __m128 t0 =
-        _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(_mm_load_ps(node.lo[a]), r.origin[a]), r.pad), r.inv_dir[a]);
-    const __m128 t1 =
-        _mm_mul_ps(_mm_add_ps(_mm_sub_ps(_mm_load_ps(node.hi[a]), r.origin[a]), r.pad), r.inv_dir[a]);
-    const __m128 near = _mm_min_ps(t1, t0);
-    const __m128 far = _mm_max_ps(t0, t1);
-    t_near = _mm_max_ps(near, t_near);
-    t_far = _mm_min_ps(far, t_far);
-  }
-  t_far = _mm_min_ps(_mm_mul_ps(t_far, _mm_set1_ps(kBoxFarScale)), _mm_set1_ps(tmax));
-  t_entry = t_near;
-  const __m128i unused = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(node.child)),
-                                         _mm_set1_epi32(int(kInvalidIndex)));
-  return _mm_movemask_ps(_mm_andnot_ps(_mm_castsi128_ps(unused), _mm_cmple_ps(t_near, t_far)));
-}
-
-// The 8-wide node test (AVX2), chosen at run time where the CPU has AVX2 (cpu_has_avx2): the binary
-// stays x86-64-v2. Only "avx2", never "fma": with FMA enabled GCC may contract a product and a sum
-// into one rounding (-ffp-contract=fast is its default), and every lane must round as the scalar
-// test does.
-// Embree's form, one FMA per slab (t = lo * inv - (o + q) * inv, the origin term per ray, the pad q
-// widened by 2^-23 |o| to cover that term's rounding, a zero direction component given the finite
-// inv 2^17 max|inv| so that axis-parallel rays still cull, the exact kernel kept for rays where a term
-// would overflow or the widening pass the pad; a target("avx2,fma") walk under -ffp-contract=off)
-// visited the same nodes but was no faster: BVH/Embree of the FMA walk over this one, one binary
-// switching per run, interleaved, one core, medians of 6 (goathead, dragon, bunny_hr, icosphere:8):
-// camera closest 0.84-1.16, any 0.87-0.99, random closest 0.93-1.03, any 0.85-0.95. As visit_children
-// says, the test waits on the node's load, not on arithmetic (and the FMA form keeps nine per-ray
-// vectors live instead of seven).
-struct Box8Ray {
-  __m256 origin[3], inv_dir[3];
-  __m256 tmin, pad;
-
-  __attribute__((target("avx2"))) explicit Box8Ray(const BoxRay& r)
-      : tmin(_mm256_set1_ps(r.tmin)), pad(_mm256_set1_ps(r.pad)) {
-    for (int a = 0; a < 3; ++a) {
-      origin[a] = _mm256_set1_ps(r.origin[a]);
-      inv_dir[a] = _mm256_set1_ps(r.inv_dir[a]);
-    }
-  }
-};
-
-// intersect_box4 on eight boxes, operation for operation (the AVX min, max and ordered compare treat
-// NaN as the SSE ones do). Returns the hit mask and writes the entry distances.
-__attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, const Box8Ray& r, float tmax,
-                                                          float t_entry[8]) {
-  __m256 t_near = r.tmin;
-  // The far distances' widening (kBoxFarScale) is applied once, to their minimum, instead of to each
-  // axis: x -> x * scale rounds monotonically, so min(x_i) * scale == min(x_i * scale) bit for bit, and
-  // a NaN slab distance is skipped by the min as before (t_far starts at +inf, not at a NaN). Two
-  // multiplications fewer per node.
-  __m256 t_far = _mm256_set1_ps(kInfinity);
-  for (int a = 0; a < 3; ++a) {
-    const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_load_ps(node.lo[a]), r.origin[a]), r.pad),
-                                    r.inv_dir[a]);
-    const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_load_ps(node.hi[a]), r.origin[a]), r.pad),
-                                    r.inv_dir[a]);
-    const __m256 near = _mm256_min_ps(t1, t0);
-    const __m256 far = _mm256_max_ps(t0, t1);
-    t_near = _mm256_max_ps(near, t_near);
-    t_far = _mm256_min_ps(far, t_far);
-  }
-  // t_near <= t_far * scale and t_near <= tmax as two compares (one step less from the node's load to
-  // the next node's) measured 0.994-1.016, median 1.005 (BVH/Embree, goathead, dragon, bunny_hr, one
-  // core, five interleaved rounds): not kept.
-  t_far = _mm256_min_ps(_mm256_mul_ps(t_far, _mm256_set1_ps(kBoxFarScale)), _mm256_set1_ps(tmax));
-  _mm256_storeu_ps(t_entry, t_near);
-  const __m256i unused = _mm256_cmpeq_epi32(_mm256_load_si256(reinterpret_cast<const __m256i*>(node.child)),
-                                            _mm256_set1_epi32(int(kInvalidIndex)));
-  return _mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(unused), _mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ)));
 }
 
 // Whether this CPU runs the AVX2 kernels (asked once).
@@ -212,11 +88,8 @@ struct Watertight4Ray {
   __m128 origin[3];  // in the shear frame's order: kx, ky, kz
   __m128 sx, sy, sz;
   // Byte offsets in a TrianglePacket of the rows p[0][kx], p[0][ky], p[0][kz] (corner c's lie 48 c
-  // bytes further, a constant displacement in the load's address), once per ray: indexed by kx, ky
-  // and kz, GCC recomputed nine row addresses on every leaf and kept them on the stack (callgrind,
-  // goathead, random rays: 862 -> 832 instructions per closest-hit ray, 657 -> 644 any; 4-wide walk
-  // 1150 -> 1121 and 915 -> 903; BVH/Embree median 1.018, 0.990-1.091: goathead, dragon, bunny_hr, one
-  // core, four interleaved rounds).
+  // bytes further, a constant displacement in the load's address), once per ray: indexed by kx, ky and
+  // kz, GCC recomputed nine row addresses on every leaf and kept them on the stack.
   size_t row[3];
 
   explicit Watertight4Ray(const WatertightRay& r)
@@ -255,10 +128,8 @@ inline int exact_lane(const WatertightRay& ray, const TrianglePacket& packet, in
 // product overflowed), and the corners' z range, widened by the pre-check's margins, finite and
 // within (tmin, tmax] (t is a convex combination of the corners' z, so it lies there too, as does
 // its rounding to float). Lanes before the first sure lane are decided in lane order; the mask
-// returned has one bit, the first lane that hits, or none. BVH/Embree on any hit against deciding
-// every candidate in double (goathead, dragon, bunny_hr, one core, two runs of 4-5 interleaved
-// rounds): camera 1.01-1.13, random 1.03-1.09; callgrind, random any hit on goathead: 690 -> 657
-// instructions per ray. Skipping the double decision altogether (timing only) gained 1.03-1.10.
+// returned has one bit, the first lane that hits, or none. Faster on any hit than deciding every
+// candidate in double (docs/bench/history.md).
 template <class Decide>
 [[gnu::always_inline]] inline int first_hit_lane(int candidates, int sure, Decide decide) {
   const int first_sure = sure & -sure;
@@ -291,8 +162,10 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   const __m128 u = _mm_sub_ps(_mm_mul_ps(x[2], y[1]), _mm_mul_ps(y[2], x[1]));
   const __m128 v = _mm_sub_ps(_mm_mul_ps(x[0], y[2]), _mm_mul_ps(y[0], x[2]));
   const __m128 w = _mm_sub_ps(_mm_mul_ps(x[1], y[0]), _mm_mul_ps(y[1], x[0]));
-  const __m128 mx = _mm_max_ps(_mm_andnot_ps(sign, x[0]), _mm_max_ps(_mm_andnot_ps(sign, x[1]), _mm_andnot_ps(sign, x[2])));
-  const __m128 my = _mm_max_ps(_mm_andnot_ps(sign, y[0]), _mm_max_ps(_mm_andnot_ps(sign, y[1]), _mm_andnot_ps(sign, y[2])));
+  const __m128 mx =
+      _mm_max_ps(_mm_andnot_ps(sign, x[0]), _mm_max_ps(_mm_andnot_ps(sign, x[1]), _mm_andnot_ps(sign, x[2])));
+  const __m128 my =
+      _mm_max_ps(_mm_andnot_ps(sign, y[0]), _mm_max_ps(_mm_andnot_ps(sign, y[1]), _mm_andnot_ps(sign, y[2])));
   // watertight_filter_bound, operation for operation.
   const __m128 s = _mm_add_ps(mx, my);
   const __m128 bound = _mm_add_ps(
@@ -316,12 +189,14 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   const __m128 margin = _mm_set1_ps(0x1p-20f), smallest = _mm_set1_ps(0x1p-126f);
   const __m128 below = _mm_sub_ps(zlo, _mm_add_ps(_mm_mul_ps(margin, _mm_andnot_ps(sign, zlo)), smallest));
   const __m128 above = _mm_add_ps(zhi, _mm_add_ps(_mm_mul_ps(margin, _mm_andnot_ps(sign, zhi)), smallest));
-  candidates &= ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
+  candidates &=
+      ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
   if (candidates == 0) return 0;
   if constexpr (kAny) {
     const __m128 one_sign = _mm_or_ps(_mm_and_ps(_mm_and_ps(un, vn), wn), _mm_and_ps(_mm_and_ps(up, vp), wp));
-    const __m128 in_range = _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmin)), _mm_cmple_ps(above, _mm_set1_ps(tmax))),
-                                       _mm_cmplt_ps(above, _mm_set1_ps(kInfinity)));
+    const __m128 in_range =
+        _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmin)), _mm_cmple_ps(above, _mm_set1_ps(tmax))),
+                   _mm_cmplt_ps(above, _mm_set1_ps(kInfinity)));
     const __m128 sure = _mm_and_ps(_mm_and_ps(one_sign, in_range), _mm_cmplt_ps(s, _mm_set1_ps(0x1p60f)));
     return first_hit_lane(candidates, _mm_movemask_ps(sure) & candidates, [&](int lane) {
       return exact_lane(r.ray, packet, lane, lane, tmin, tmax, t_out, u_out, v_out) != 0;
@@ -360,12 +235,10 @@ __attribute__((target("avx2"))) inline __m256 load_packet_pair(const TrianglePac
 // std::max does, NaN included; each compare is the scalar one or its negation, NaN falling the same
 // way), so it rounds as the scalar decision does, bit for bit. Returns the mask of lanes hit among
 // `lanes`, and writes t, u, v of all four lanes at t_out[0..3] (results only where hit).
-// Branch-free, four lanes for about the instructions of one: against exact_lane lane by lane,
-// BVH/Embree closest hit 0.995-1.047 (camera 1.013-1.022, random 1.008-1.046; goathead, dragon,
-// bunny_hr, one core, four interleaved rounds), 3-8 % fewer branches per ray (callgrind). Any hit
-// keeps deciding lane by lane up to the first hit: exact_packet there measured 0.99-1.01.
-__attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r, const TrianglePacket& packet, int lanes,
-                                                        float tmin, float tmax, float* t_out, float* u_out,
+// Branch-free, four lanes for about the instructions of one; any hit keeps deciding lane by lane up to
+// the first hit (docs/bench/history.md).
+__attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r, const TrianglePacket& packet,
+                                                        int lanes, float tmin, float tmax, float* t_out, float* u_out,
                                                         float* v_out) {
   const WatertightRay& ray = r.ray;
   // The origin's float lanes in the shear frame's order, widened exactly to double.
@@ -390,10 +263,12 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
   const __m256d u = _mm256_sub_pd(_mm256_mul_pd(x[2], y[1]), _mm256_mul_pd(y[2], x[1]));
   const __m256d v = _mm256_sub_pd(_mm256_mul_pd(x[0], y[2]), _mm256_mul_pd(y[0], x[2]));
   const __m256d w = _mm256_sub_pd(_mm256_mul_pd(x[1], y[0]), _mm256_mul_pd(y[1], x[0]));
-  const __m256d negative = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_LT_OQ), _mm256_cmp_pd(v, zero, _CMP_LT_OQ)),
-                                        _mm256_cmp_pd(w, zero, _CMP_LT_OQ));
-  const __m256d positive = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_GT_OQ), _mm256_cmp_pd(v, zero, _CMP_GT_OQ)),
-                                        _mm256_cmp_pd(w, zero, _CMP_GT_OQ));
+  const __m256d negative =
+      _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_LT_OQ), _mm256_cmp_pd(v, zero, _CMP_LT_OQ)),
+                   _mm256_cmp_pd(w, zero, _CMP_LT_OQ));
+  const __m256d positive =
+      _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(u, zero, _CMP_GT_OQ), _mm256_cmp_pd(v, zero, _CMP_GT_OQ)),
+                   _mm256_cmp_pd(w, zero, _CMP_GT_OQ));
   const __m256d det = _mm256_add_pd(_mm256_add_pd(u, v), w);
   const __m256d s = _mm256_add_pd(sx, sy);
   const __m256d plane = _mm256_mul_pd(_mm256_mul_pd(_mm256_set1_pd(0x1p-24), s), s);
@@ -402,11 +277,13 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
                                            _mm256_and_pd(_mm256_cmp_pd(_mm256_and_pd(det, abs_mask), plane, _CMP_GE_OQ),
                                                          _mm256_cmp_pd(det, zero, _CMP_NEQ_UQ)));
   const __m256d inv_det = _mm256_div_pd(_mm256_set1_pd(1.0), det);
-  const __m256d num = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(u, z[0]), _mm256_mul_pd(v, z[1])), _mm256_mul_pd(w, z[2]));
+  const __m256d num =
+      _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(u, z[0]), _mm256_mul_pd(v, z[1])), _mm256_mul_pd(w, z[2]));
   const __m128 t = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_mul_pd(num, _mm256_set1_pd(ray.dsz)), inv_det));
   // tmin < t <= tmax (false for NaN), t not infinite.
-  const __m128 in_range = _mm_and_ps(_mm_and_ps(_mm_cmp_ps(t, _mm_set1_ps(tmin), _CMP_GT_OQ), _mm_cmp_ps(t, _mm_set1_ps(tmax), _CMP_LE_OQ)),
-                                     _mm_cmp_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), t), _mm_set1_ps(kInfinity), _CMP_NEQ_UQ));
+  const __m128 in_range =
+      _mm_and_ps(_mm_and_ps(_mm_cmp_ps(t, _mm_set1_ps(tmin), _CMP_GT_OQ), _mm_cmp_ps(t, _mm_set1_ps(tmax), _CMP_LE_OQ)),
+                 _mm_cmp_ps(_mm_andnot_ps(_mm_set1_ps(-0.0f), t), _mm_set1_ps(kInfinity), _CMP_NEQ_UQ));
   _mm_storeu_ps(t_out, t);
   _mm_storeu_ps(u_out, _mm256_cvtpd_ps(_mm256_mul_pd(v, inv_det)));
   _mm_storeu_ps(v_out, _mm256_cvtpd_ps(_mm256_mul_pd(w, inv_det)));
@@ -421,9 +298,9 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
 // kAny: as first_hit_lane says.
 template <bool kAny = false>
 __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertight8Ray& r, const TrianglePacket& a,
-                                                                const TrianglePacket& b, int lanes, float tmin,
-                                                                float tmax, float t_out[8], float u_out[8],
-                                                                float v_out[8]) {
+                                                                 const TrianglePacket& b, int lanes, float tmin,
+                                                                 float tmax, float t_out[8], float u_out[8],
+                                                                 float v_out[8]) {
   const __m256 sign = _mm256_set1_ps(-0.0f);
   __m256 x[3], y[3], ez[3], az = _mm256_setzero_ps();
   for (int c = 0; c < 3; ++c) {
@@ -443,8 +320,9 @@ __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertigh
                                   _mm256_max_ps(_mm256_andnot_ps(sign, y[1]), _mm256_andnot_ps(sign, y[2])));
   const __m256 s = _mm256_add_ps(mx, my);
   const __m256 bound = _mm256_add_ps(
-      _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(32.0f * 0x1p-24f), _mm256_add_ps(s, _mm256_mul_ps(_mm256_set1_ps(2.0f), az))),
-                    s),
+      _mm256_mul_ps(
+          _mm256_mul_ps(_mm256_set1_ps(32.0f * 0x1p-24f), _mm256_add_ps(s, _mm256_mul_ps(_mm256_set1_ps(2.0f), az))),
+          s),
       _mm256_set1_ps(0x1p-126f));
   const __m256 nbound = _mm256_xor_ps(bound, sign);
   const __m256 un = _mm256_cmp_ps(u, nbound, _CMP_LT_OQ), vn = _mm256_cmp_ps(v, nbound, _CMP_LT_OQ),
@@ -459,10 +337,8 @@ __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertigh
   const __m256 z0 = _mm256_mul_ps(r.sz, ez[0]), z1 = _mm256_mul_ps(r.sz, ez[1]), z2 = _mm256_mul_ps(r.sz, ez[2]);
   const __m256 zlo = _mm256_min_ps(z0, _mm256_min_ps(z1, z2)), zhi = _mm256_max_ps(z0, _mm256_max_ps(z1, z2));
   const __m256 margin = _mm256_set1_ps(0x1p-20f), smallest = _mm256_set1_ps(0x1p-126f);
-  const __m256 below =
-      _mm256_sub_ps(zlo, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zlo)), smallest));
-  const __m256 above =
-      _mm256_add_ps(zhi, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zhi)), smallest));
+  const __m256 below = _mm256_sub_ps(zlo, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zlo)), smallest));
+  const __m256 above = _mm256_add_ps(zhi, _mm256_add_ps(_mm256_mul_ps(margin, _mm256_andnot_ps(sign, zhi)), smallest));
   candidates &= ~_mm256_movemask_ps(_mm256_or_ps(_mm256_cmp_ps(below, _mm256_set1_ps(tmax), _CMP_GT_OQ),
                                                  _mm256_cmp_ps(above, _mm256_set1_ps(tmin), _CMP_LE_OQ)));
   if constexpr (kAny) {
@@ -472,7 +348,8 @@ __attribute__((target("avx2"))) inline int intersect_watertight8(const Watertigh
     const __m256 in_range = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(below, _mm256_set1_ps(tmin), _CMP_GT_OQ),
                                                         _mm256_cmp_ps(above, _mm256_set1_ps(tmax), _CMP_LE_OQ)),
                                           _mm256_cmp_ps(above, _mm256_set1_ps(kInfinity), _CMP_LT_OQ));
-    const __m256 sure = _mm256_and_ps(_mm256_and_ps(one_sign, in_range), _mm256_cmp_ps(s, _mm256_set1_ps(0x1p60f), _CMP_LT_OQ));
+    const __m256 sure =
+        _mm256_and_ps(_mm256_and_ps(one_sign, in_range), _mm256_cmp_ps(s, _mm256_set1_ps(0x1p60f), _CMP_LT_OQ));
     return first_hit_lane(candidates, _mm256_movemask_ps(sure) & candidates, [&](int lane) {
       return exact_lane(r.ray, lane < 4 ? a : b, lane & 3, lane, tmin, tmax, t_out, u_out, v_out) != 0;
     });

@@ -5,23 +5,18 @@
 // node is skipped once the closest hit lies before it.
 #pragma once
 
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
+#include "bvh_simd.h"
 #include "raylab/bvh_build.h"
-#include "raylab/bvh_simd.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_loop.h"
+#include "raylab/triangle_packets.h"
+#include "triangle_loop.h"
 
 #include <algorithm>
 #include <bit>
 #include <type_traits>
 
 namespace raylab {
-
-// The far limit for the scene's top-level box tests (src/scene.cpp), whose boxes are not padded:
-// about 1e-5 relative slack for the box and triangle tests rounding the same point differently. The
-// structures themselves need none: their boxes are padded (box_intersection.h), and they open every
-// box entered at or before the best hit (inclusive, for the index tie-break).
-inline float box_limit(float best_t) { return best_t + std::abs(best_t) * 0x1p-16f; }
 
 class Bvh final : public StructureBase<Bvh> {
  public:
@@ -63,10 +58,7 @@ class Bvh final : public StructureBase<Bvh> {
   std::span<const TrianglePacket> packets() const { return {packets_.get(), packet_count_}; }
 
  private:
-  // 16 bytes; the depth is read only by recorders. Dropping it for the unrecorded queries (12 bytes,
-  // or 16 unused) was measured (as above; dragon, bunny_hr, goathead, icosphere:8): random-ray closest
-  // hit 1.07-1.34x on the three large meshes but 1.00 on goathead, camera rays and any hit 0.83-0.99x:
-  // a change of the compiler's register use, not of memory traffic, so the entry stays as it is.
+  // 16 bytes; the depth is read only by recorders (dropping it was no faster: docs/bench/history.md).
   struct Entry {
     uint32_t ref;    // node index, or first packet of a leaf
     uint32_t count;  // triangles of a leaf; 0 for a node
@@ -77,8 +69,7 @@ class Bvh final : public StructureBase<Bvh> {
   // The two widths, as the traversal sees them: `test` tests a node's children; `triangles` the next
   // kLeafLanes triangles of a leaf (`lanes` of them real) from the packets at `p`: one packet with SSE,
   // two with AVX2. A leaf of four triangles or fewer also takes the 8-lane test (its packet in both
-  // halves): the 4-lane test there ran at 0.70-0.73x on camera rays and 0.91-0.95x on random rays
-  // (dragon, measured as in visit_children), and forcing intersect_watertight8 inline gave 0.95-1.04x.
+  // halves), faster there than the 4-lane test.
   struct Sse4 {
     using Node = Bvh4Node;
     using BoxRayW = Box4Ray;
@@ -133,45 +124,7 @@ class Bvh final : public StructureBase<Bvh> {
 
   // One loop for both queries and both widths: closest hit prunes entries beyond the best hit so far;
   // any hit stops at the first triangle hit.
-  // Where the random-ray gap to Embree medium lies, measured on goathead (its tree fits in L2), one
-  // core, BVH/Embree in one run, ns per closest-hit ray before the setup and prefetch fixes: one ray
-  // repeated (nothing missed, every branch learnt) 71 vs 46; 1,024 rays repeated 169 vs 89; 100,000
-  // rays 285 vs 159. Counted by callgrind (20,000 random rays; valgrind's CPU has no AVX-512, so Embree
-  // runs its AVX2 kernels there), instructions per ray are the gap: closest hit 894 against Embree's
-  // 506 (1,092 before those fixes), any hit 738 against 418 (944); simulated mispredictions 8.0
-  // against 6.9 (10.1). raylab's closest hit: about 130 of setup, about 90 per inner node (3.4 per
-  // ray: the 8-box test 51, choosing and pushing the children about 40) and 214 per leaf test (0.9
-  // per ray: the 8-lane filter 127, the exact decision on 41 % of them). Tried one at a time (BVH/Embree
-  // of each against this code, goathead, dragon, bunny_hr, interleaved runs; the noise is about 0.05):
-  // within the noise, so not kept: leaf_size 4; a float stand-in for exact_lane's double decision (an
-  // upper bound on its cost); the two-children case without the sort loop; this
-  // walk and the 8-lane kernels compiled for AVX-512 (32 vector registers, EVEX compares: so there is
-  // no separate AVX-512 path). Each 8-box test done twice ran at 0.94-1.03 (the walk waits on its
-  // chain more than on the execution units), and Embree's shorter box test (one FMA per slab, planes
-  // by sign, no pad: timing only, as it is not conservative) at 1.00-1.05. Two rays walked in turns,
-  // to overlap their chains, ran at 0.78-1.04 on random rays and 0.72-0.91 on camera rays (closest
-  // hit; each walk's state lives in memory, and every ray pays the full setup). (Those measures, and
-  // the prefetch ones beside visit_children, ran with the AVX2 walk's prefetches silently dropped by
-  // the compiler: see prefetch().) Not kept either, measured the same way after the fix unless said:
-  // intersect_watertight8 forced inline 0.96-1.06; the 8-lane filter reading the shear frame's rows
-  // by nine offsets made once per ray 0.87-1.12 (three, the corner a constant displacement, are kept:
-  // Watertight4Ray::row); one branch-free prefetch of six lines for every child,
-  // against no prefetch at all, 0.86-1.04 (prefetch() gains 1.02-1.31 over none); the whole AVX2
-  // walk flattened (every call inlined, the leaf test too: 835 instructions per closest-hit random
-  // ray against 865) 0.97-1.06, median 1.00; the box test's per-ray vectors read from memory (so
-  // that the leaf test need not save and restore them: 829 -> 817 instructions) 0.99-1.02, median
-  // 1.003, and the triangle test's too 0.97-1.00.
-  // Where the instructions go now, against Embree's (callgrind, goathead, 20,000 random rays, closest
-  // hit; each block's count per ray from how often its instructions ran): both trees are walked alike,
-  // 3.4 node tests per ray here and 3.5 in Embree, and 0.92 8-lane leaf tests here against 0.96 leaves
-  // of 1.2 four-triangle tests there. The gap, 832 instructions per ray against 482, is the cost of
-  // each step: a node test 51 against 24 (the padded, exactly conservative slab test against one FMA
-  // per plane); the walk's bookkeeping (choosing, pushing and popping children) about 140 per ray
-  // against 115; a leaf test 158 (the watertight shear, the filter's error bound, the z range) against
-  // about 108 for Embree's Möller-Trumbore on precomputed edges (not watertight: the benchmark's 13
-  // edge rays); the per-ray shear, 110 on the 62 % of rays that reach the root's children, which
-  // Möller-Trumbore does not need; the double decision of a hit (0.37 per ray), 116 against 66 in the
-  // block Embree runs about as often (0.35).
+  // Where its instructions go against Embree's, and what was tried and not kept: docs/bench/history.md.
   template <class Width, bool kClosest, class Recorder>
   [[gnu::always_inline]] bool traverse_wide(const Ray& ray, Hit* hit, Recorder& record) const {
     record.ray();
@@ -188,8 +141,6 @@ class Bvh final : public StructureBase<Bvh> {
       // Unrecorded, the root box is not tested: its children's (padded alike) lie inside it, so a ray
       // that misses it misses them all, and its entry distance prunes nothing the ray's tmin does not.
       // The root node's children are tested before the triangle test's setup, which a miss skips.
-      // BVH/Embree of this over the scalar root test 1.00-1.07 (goathead, dragon, bunny_hr, one core,
-      // interleaved runs); with the triangle setup done first, 0.93-0.97 on camera rays.
       if (node_count() == 0) return false;
       e = {0, 0, ray.tmin, 0};
       if (!visit_children<Width, kClosest>(e, boxw, ray.tmax, record, stack, size)) return false;
@@ -210,8 +161,7 @@ class Bvh final : public StructureBase<Bvh> {
       }
       record_node(e, record);
       if (e.count == 0) {
-        descending =
-            visit_children<Width, kClosest>(e, boxw, kClosest ? best.t : ray.tmax, record, stack, size);
+        descending = visit_children<Width, kClosest>(e, boxw, kClosest ? best.t : ray.tmax, record, stack, size);
       } else if constexpr (kClosest) {
         found |= closest_in_leaf<Width>(tester, triw, e, best, record);
       } else if (any_in_leaf<Width>(tester, triw, e, record)) {
@@ -223,8 +173,8 @@ class Bvh final : public StructureBase<Bvh> {
   }
 
   uint32_t leaf_id(uint32_t first_packet) const {
-    return uint32_t(node_count() +
-                    (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) - leaf_packets_.begin()));
+    return uint32_t(node_count() + (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) -
+                                    leaf_packets_.begin()));
   }
 
   template <class Recorder>
@@ -244,20 +194,8 @@ class Bvh final : public StructureBase<Bvh> {
   // when no child is hit. The other children hit go on the stack; `Ordered` puts the nearest child in
   // `e` and pushes the rest farthest first. A lone hit child, the common case, skips the stack.
   // Ordered by the entry distances the box test computes anyway, not by the ray's direction signs.
-  // Measured on the 8-wide tree (one core, one process, interleaved, best of 15 to 21; dragon,
-  // bunny_hr, goathead): children ordered per ray octant by their centres (a 32-byte table per node,
-  // as in Ylitie et al. 2017) visited the same nodes within 1% for closest hit but ran at 0.79 to 0.97
-  // of the distance sort's speed, the table load costing more than sorting the few children hit;
-  // for any hit (unordered here) it visited 0-4% more nodes and ran at 0.83 to 1.08.
-  // Measured again in this round (one core, the old and new code loaded side by side in one process,
-  // repetitions interleaved, medians of 11-21; dragon): any hit ordered by entry distance too ran at
-  // 0.91-0.92 of unordered on random rays (it does not find an occluder sooner), so any hit stays
-  // unordered. Choosing each axis's near and far plane by the ray's sign (no min/max per axis, same
-  // bits) ran at 0.94-1.02 of the min/max test: the node test waits on its load, not on arithmetic.
-  // Not prefetching the lone hit child (it is read at once) changed nothing (0.99-1.05). Prefetching
-  // the first line of every inner child before the test (its result is a node load away) ran at
-  // 0.77-1.10 (BVH/Embree, one core, interleaved, medians of 4; goathead, dragon, bunny_hr, icosphere:8):
-  // it spends the bandwidth on children the test then rejects.
+  // Per-octant child tables, ordered any hit, sign-chosen planes and prefetching every child measured
+  // slower (docs/bench/history.md).
   template <class Width, bool Ordered, class Recorder>
   [[gnu::always_inline]] bool visit_children(Entry& e, const typename Width::BoxRayW& boxw, float tmax,
                                              Recorder& record, Entry* stack, int& size) const {
@@ -304,10 +242,7 @@ class Bvh final : public StructureBase<Bvh> {
   // always_inline because GCC 12 otherwise emitted no prefetch at all in the AVX2 walk: this function
   // (default target) was not inlined into traverse8 (target "avx2") early, its only effect,
   // __builtin_prefetch, made it look const, and the calls were deleted as dead code. With the
-  // prefetches back, BVH/Embree against the walk without them (one core, one binary each, two
-  // interleaved rounds, medians of 9, or 5 on the large meshes): random rays closest 1.07-1.17 and
-  // any 1.02-1.13 (goathead, dragon, bunny_hr), closest 1.09-1.31 and any 1.07-1.14 (icosphere:8,
-  // the dragon at 1.6M); camera rays 0.89-1.18, about even.
+  // prefetches back the walk is faster on large meshes (docs/bench/history.md).
   // A leaf is loaded whole, up to the two packets the 8-lane test reads first (160 bytes each, 16-byte
   // aligned: up to six cache lines). Prefetching only its first two lines left the 8-lane test
   // waiting on its second packet: that load took 47 % of the leaf test's samples on the dragon.
@@ -316,9 +251,6 @@ class Bvh final : public StructureBase<Bvh> {
     if (e.count != 0) {
       // One packet is 160 bytes (three or four lines), two are 320 (five or six): unrolled, the
       // second packet's lines only when the leaf has one, and the node's size known from the width.
-      // Against the loop over `bytes` with a run-time width: instructions per random ray (callgrind,
-      // goathead) 880 -> 865 closest, 725 -> 690 any; BVH/Embree 0.996-1.050, median 1.016 (goathead,
-      // dragon, bunny_hr, one core, five interleaved rounds).
       const char* p = reinterpret_cast<const char*>(&packets_[e.ref]);
       _mm_prefetch(p, _MM_HINT_T0);
       _mm_prefetch(p + 64, _MM_HINT_T0);
@@ -342,8 +274,8 @@ class Bvh final : public StructureBase<Bvh> {
   [[gnu::always_inline]] bool closest_in_leaf(const TriangleTester& tester, const typename Width::TriangleRayW& triw,
                                               const Entry& leaf, Hit& best, Recorder& record) const {
     if (tester.test != TriangleTest::Watertight)
-      return closest_in_triangles(*mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, best,
-                                  record);
+      return closest_in_triangles(
+          *mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, best, record);
     bool found = false;
     for (uint32_t first = 0; first < leaf.count; first += Width::kLeafLanes) {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
@@ -359,8 +291,8 @@ class Bvh final : public StructureBase<Bvh> {
   [[gnu::always_inline]] bool any_in_leaf(const TriangleTester& tester, const typename Width::TriangleRayW& triw,
                                           const Entry& leaf, Recorder& record) const {
     if (tester.test != TriangleTest::Watertight)
-      return any_in_triangles(*mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); },
-                              tester.ray.tmax, record);
+      return any_in_triangles(
+          *mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, tester.ray.tmax, record);
     for (uint32_t first = 0; first < leaf.count; first += Width::kLeafLanes) {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));
@@ -375,9 +307,8 @@ class Bvh final : public StructureBase<Bvh> {
 
   Bounds root_bounds_;
   int width_ = 4;
-  // One of the two, by width_. On 4 KiB pages: putting them on huge pages (allocate_huge, as the
-  // packets) ran at 0.96-1.00 of this on icosphere:8, whose nodes pass 2 MiB (BVH/Embree, one core,
-  // interleaved, medians of 4): page walks are not what the node loads wait on.
+  // One of the two, by width_. On 4 KiB pages: huge pages were no faster, page walks are not what the
+  // node loads wait on.
   std::vector<Bvh4Node> nodes4_;
   std::vector<Bvh8Node> nodes8_;
   HugeArray<TrianglePacket> packets_;

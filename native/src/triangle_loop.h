@@ -1,7 +1,7 @@
 // The inner loop every structure shares: test a run of triangles against one ray.
 #pragma once
 
-#include "raylab/mailbox.h"
+#include "mailbox.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
 
@@ -11,8 +11,8 @@ namespace raylab {
 
 // Tests triangles index(0..count-1) and keeps the closest in `best` (best.t bounds the search).
 template <class Recorder, class IndexFn>
-inline bool closest_in_triangles(const TriangleMesh& mesh, const TriangleTester& tester, uint32_t count,
-                                 IndexFn index, Hit& best, Recorder& record) {
+inline bool closest_in_triangles(const TriangleMesh& mesh, const TriangleTester& tester, uint32_t count, IndexFn index,
+                                 Hit& best, Recorder& record) {
   bool found = false;
   for (uint32_t i = 0; i < count; ++i) {
     const uint32_t tri = index(i);
@@ -31,8 +31,8 @@ inline bool closest_in_triangles(const TriangleMesh& mesh, const TriangleTester&
 }
 
 template <class Recorder, class IndexFn>
-inline bool any_in_triangles(const TriangleMesh& mesh, const TriangleTester& tester, uint32_t count,
-                             IndexFn index, float tmax, Recorder& record) {
+inline bool any_in_triangles(const TriangleMesh& mesh, const TriangleTester& tester, uint32_t count, IndexFn index,
+                             float tmax, Recorder& record) {
   for (uint32_t i = 0; i < count; ++i) {
     const uint32_t tri = index(i);
     TriangleHit th{};
@@ -52,12 +52,11 @@ inline Hit initial_hit(const Ray& ray) {
 
 // Every triangle of the mesh, in index order: brute force, and the AABB structure once its box is hit.
 template <class Recorder>
-inline bool closest_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Hit& hit,
-                            Recorder& record) {
+inline bool closest_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Hit& hit, Recorder& record) {
   const TriangleTester tester(ray, kind);
   Hit best = initial_hit(ray);
-  if (!closest_in_triangles(mesh, tester, uint32_t(mesh.triangle_count()), [](uint32_t i) { return i; },
-                            best, record))
+  if (!closest_in_triangles(
+          mesh, tester, uint32_t(mesh.triangle_count()), [](uint32_t i) { return i; }, best, record))
     return false;
   hit = best;
   return true;
@@ -66,8 +65,8 @@ inline bool closest_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const R
 template <class Recorder>
 inline bool any_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Recorder& record) {
   const TriangleTester tester(ray, kind);
-  return any_in_triangles(mesh, tester, uint32_t(mesh.triangle_count()), [](uint32_t i) { return i; },
-                          ray.tmax, record);
+  return any_in_triangles(
+      mesh, tester, uint32_t(mesh.triangle_count()), [](uint32_t i) { return i; }, ray.tmax, record);
 }
 
 // The two queries of a structure that walks its leaves front to back (octree nodes, grid cells).
@@ -76,34 +75,38 @@ inline bool any_in_mesh(const TriangleMesh& mesh, TriangleTest kind, const Ray& 
 // ray.tmax for any hit). `mailbox` (mailbox.h), one per query, skips the triangles this ray has
 // already tested in an earlier leaf; the search state is the whole ray's, which makes that exact.
 template <class Recorder, class Walk, class Mailbox = NoMailbox>
-inline bool closest_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Hit& hit,
-                                Recorder& record, Walk walk, Mailbox mailbox = {}) {
+inline bool closest_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Hit& hit, Recorder& record,
+                                Walk walk, Mailbox mailbox = {}) {
   record.ray();
   const TriangleTester tester(ray, kind);
   Hit best = initial_hit(ray);
   bool found = false;
-  walk([&] { return best.t; }, [&](std::span<const uint32_t> leaf) {
-    for (const uint32_t tri : leaf)
-      if (mailbox.first_test(tri))
-        found |= closest_in_triangles(mesh, tester, 1, [tri](uint32_t) { return tri; }, best, record);
-    return false;
-  });
+  walk([&] { return best.t; },
+       [&](std::span<const uint32_t> leaf) {
+         for (const uint32_t tri : leaf)
+           if (mailbox.first_test(tri))
+             found |= closest_in_triangles(
+                 mesh, tester, 1, [tri](uint32_t) { return tri; }, best, record);
+         return false;
+       });
   if (found) hit = best;
   return found;
 }
 
 template <class Recorder, class Walk, class Mailbox = NoMailbox>
-inline bool any_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Recorder& record,
-                            Walk walk, Mailbox mailbox = {}) {
+inline bool any_over_leaves(const TriangleMesh& mesh, TriangleTest kind, const Ray& ray, Recorder& record, Walk walk,
+                            Mailbox mailbox = {}) {
   record.ray();
   const TriangleTester tester(ray, kind);
   bool occluded = false;
-  walk([&] { return ray.tmax; }, [&](std::span<const uint32_t> leaf) {
-    for (const uint32_t tri : leaf)
-      if (mailbox.first_test(tri) && any_in_triangles(mesh, tester, 1, [tri](uint32_t) { return tri; }, ray.tmax, record))
-        return occluded = true;
-    return false;
-  });
+  walk([&] { return ray.tmax; },
+       [&](std::span<const uint32_t> leaf) {
+         for (const uint32_t tri : leaf)
+           if (mailbox.first_test(tri) && any_in_triangles(
+                                              mesh, tester, 1, [tri](uint32_t) { return tri; }, ray.tmax, record))
+             return occluded = true;
+         return false;
+       });
   return occluded;
 }
 

@@ -34,8 +34,8 @@ inline uint32_t triangle_grid_overlaps(const glm::dvec3 planes[3], const glm::ve
   auto norm_inf = [](const glm::dvec3& x) { return std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}); };
   auto norm1 = [](const glm::dvec3& x) { return std::abs(x.x) + std::abs(x.y) + std::abs(x.z); };
   // Every projection below sums products of coordinates of at most this size with axis components.
-  const double magnitude = std::max({norm_inf(v[0]), norm_inf(v[1]), norm_inf(v[2]), norm_inf(planes[0]),
-                                     norm_inf(planes[2])});
+  const double magnitude =
+      std::max({norm_inf(v[0]), norm_inf(v[1]), norm_inf(v[2]), norm_inf(planes[0]), norm_inf(planes[2])});
 
   // Drops the cells that `axis` separates; `weight` bounds the size of the axis's components and of
   // their rounding error, which scales the tolerance.

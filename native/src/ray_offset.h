@@ -16,9 +16,9 @@
 namespace raylab {
 
 namespace ray_offset_constants {
-inline constexpr float kOrigin = 1.0f / 32.0f;        // below this |coordinate| use the float offset
+inline constexpr float kOrigin = 1.0f / 32.0f;         // below this |coordinate| use the float offset
 inline constexpr float kFloatScale = 1.0f / 65536.0f;  // absolute offset near the origin
-inline constexpr float kIntScale = 256.0f;            // ulps per unit of normal component
+inline constexpr float kIntScale = 256.0f;             // ulps per unit of normal component
 }  // namespace ray_offset_constants
 
 // `p` is a hit point, `n` the geometric normal on the side the new ray leaves towards (unit length).
@@ -37,8 +37,6 @@ inline glm::vec3 offset_ray(const glm::vec3& p, const glm::vec3& n) {
 }
 
 // The naive method, kept to show where it fails.
-inline glm::vec3 offset_ray_fixed(const glm::vec3& p, const glm::vec3& n, float epsilon) {
-  return p + epsilon * n;
-}
+inline glm::vec3 offset_ray_fixed(const glm::vec3& p, const glm::vec3& n, float epsilon) { return p + epsilon * n; }
 
 }  // namespace raylab

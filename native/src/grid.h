@@ -4,14 +4,13 @@
 // padded cells front to back and stops once the closest hit lies before the next cell's entry.
 // The resolution follows pbrt-v1: about 3 * cbrt(N) cells along the longest axis, the other axes in
 // proportion, each at least 1; max_depth and leaf_size do not apply. Built in src/grid.cpp.
-// Measured (CPU time, one core, bunny 6.6k and dragon 100k triangles): 1, 1.5, 2, 3 and 4 * cbrt(N)
-// swapped ranks from run to run on the shared machine (+-40%), none clearly fastest, while memory grows
-// as the cube (dragon: 1.3, 2.1, 4.9, 10.2 MB for 1.5 to 4). pbrt's 3 is kept; 1.5 to 2 are cheaper.
+// No multiple of cbrt(N) from 1 to 4 was clearly fastest, while memory grows as its cube: pbrt's 3 is
+// kept, 1.5 to 2 are cheaper (docs/bench/history.md).
 #pragma once
 
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_loop.h"
+#include "triangle_loop.h"
 
 #include <algorithm>
 #include <cmath>
@@ -63,7 +62,8 @@ class Grid final : public StructureBase<Grid> {
                                   : std::min(bounds_.hi[axis], bounds_.lo[axis] + float(i) * cell_size_[axis]);
   }
   Bounds cell_bounds(const glm::ivec3& c) const {
-    return Bounds({plane(0, c.x), plane(1, c.y), plane(2, c.z)}, {plane(0, c.x + 1), plane(1, c.y + 1), plane(2, c.z + 1)});
+    return Bounds({plane(0, c.x), plane(1, c.y), plane(2, c.z)},
+                  {plane(0, c.x + 1), plane(1, c.y + 1), plane(2, c.z + 1)});
   }
   bool occupied(uint32_t cell) const { return (occupied_[cell >> 6] >> (cell & 63u)) & 1u; }
   // The triangles of a cell, in ascending index order.
@@ -133,8 +133,8 @@ class Grid final : public StructureBase<Grid> {
   // `fixed` narrowed to its newest cell (all three in full when fixed is -1): each gets its padded box
   // test, and a cell entered at or before limit() is visited. Returns true when visit_cell says stop.
   template <class Recorder, class Limit, class VisitCell>
-  bool visit_cells(const AxisWindow (&windows)[3], int fixed, const BoxRay& box_ray, Recorder& record,
-                   Limit& limit, VisitCell& visit_cell) const {
+  bool visit_cells(const AxisWindow (&windows)[3], int fixed, const BoxRay& box_ray, Recorder& record, Limit& limit,
+                   VisitCell& visit_cell) const {
     int from[3], to[3];
     for (int a = 0; a < 3; ++a) {
       // A cell whose padded slab is empty (a zero-width cell at negative t: kBoxFarScale shrinks a

@@ -2,9 +2,9 @@
 // triangle of the object is tested.
 #pragma once
 
-#include "raylab/box_intersection.h"
+#include "box_intersection.h"
 #include "raylab/structure.h"
-#include "raylab/triangle_loop.h"
+#include "triangle_loop.h"
 
 namespace raylab {
 
