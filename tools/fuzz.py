@@ -345,8 +345,8 @@ def cancel_round(rng, round_, findings, counts):
                    matrix_world=look_from(eye, centre), size=0.3 * size)]
     materials = [dict(reflectivity=float(rng.uniform(0, 1)), transmission=float(rng.uniform(0, 1)))]
     ss = int(rng.integers(1, 5))
-    settings = dict(super_sampling=ss, tile_size=int(rng.choice([1, 7, 32, 4096])), max_recursion=int(rng.integers(0, 5)),
-                    threads=int(rng.integers(0, 3)))
+    settings = dict(super_sampling=ss, tile_size=int(rng.choice([1, 7, 32, 4096])),
+                    max_recursion=int(rng.integers(0, 5)), threads=int(rng.integers(0, 3)))
     stop = threading.Event()
     if rng.random() < 0.5:
         calls, after = [0], int(rng.integers(0, 4))  # the first call comes before any pixel
