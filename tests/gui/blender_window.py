@@ -1,7 +1,7 @@
 """Blender-side helpers of the GUI scripts (they run inside a real Blender window under xvfb-run):
 find the 3D viewport, open its sidebar on the raylab tab, take a window screenshot, run steps one timer
-tick apart, start F12."""
-import json
+tick apart, start F12. They know nothing of the add-on, which extension_session.py loads from Blender's
+user folder; session.py, the frame of the scripts that drive the checkout's add-on, builds on them."""
 import os
 import shutil
 import subprocess
@@ -40,22 +40,6 @@ def plain_view(rotation, distance, location=(0.0, 0.0, 0.0)):
     rv3d.view_rotation = rotation.to_quaternion()
     rv3d.view_distance = distance
     area.tag_redraw()
-
-
-def run_steps(set_up, steps, report, report_path, first_interval=2.0):
-    """Runs set_up(), then the steps one per timer tick (step_timer); writes `report` as JSON to
-    report_path and quits, with "error" in it if anything failed."""
-    def finish():
-        with open(report_path, "w") as f:
-            json.dump(report, f)
-        bpy.ops.wm.quit_blender()
-
-    try:
-        set_up()
-        bpy.app.timers.register(step_timer(steps, finish, report), first_interval=first_interval)
-    except Exception:
-        report["error"] = traceback.format_exc()
-        finish()
 
 
 def show_sidebar():
@@ -166,16 +150,25 @@ def read_xwd(data):
     return np.ascontiguousarray(pixels[:, :, 2::-1] if byte_order == 0 else pixels[:, :, size - 3:])
 
 
-def step_timer(steps, finish, report, interval=1.5):
+def step_timer(steps, finish, report, interval=1.5, wait=1.0, error=None):
     """A bpy.app.timers callback that runs `steps` in order, `interval` seconds apart so that the
-    window redraws in between, then `finish()`; an exception ends the run with report["error"]."""
+    window redraws in between, then `finish()`; an exception ends the run with report["error"] (or
+    error(traceback)). A step that returns False is called again `wait` seconds later, one that returns
+    a number (not a bool) that many seconds later."""
     def run():
         try:
-            steps.pop(0)()
+            step = steps.pop(0)
+            again = step()
+            if again is False or (isinstance(again, (int, float)) and not isinstance(again, bool)):
+                steps.insert(0, step)
+                return wait if again is False else again
             if steps:
                 return interval
         except Exception:
-            report["error"] = traceback.format_exc()
+            if error is None:
+                report["error"] = traceback.format_exc()
+            else:
+                error(traceback.format_exc())
         finish()
         return None
     return run

@@ -15,23 +15,21 @@ level with the dragon swapped in, as a student runs it from the sidebar.
    (each line, its measured and its available width) goes into the report.
 OUT_DIR/compare_session.json holds what was seen, or "error".
 """
-import json
 import os
 import sys
 import threading
 import time
-import traceback
 
 import bpy
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d, watch_progress  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
+from session import rect  # noqa: E402
 
-OUT_DIR = sys.argv[sys.argv.index("--") + 1]
-os.makedirs(OUT_DIR, exist_ok=True)
+OUT_DIR = session.out_dir()
 report = {}
+SESSION = session.Session(os.path.join(OUT_DIR, "compare_session.json"), report)
 WATCHDOG_SECONDS = 500
 TIME_LIMIT = 5.0
 WHEEL_STEPS = 80  # more than the sidebar's height needs: the view stops at its end
@@ -39,16 +37,6 @@ TABLE_STEPS_UP = 34  # wheel steps back up from the end: the table's start (abou
 WIDEN = 260  # pixels the sidebar is dragged wider by, for a column per structure
 EDGE_GRIP = 8  # pixels inside the sidebar's left edge where Blender's resize grip is (3.4, region overlap)
 ticks = []
-
-
-def finish():
-    with open(os.path.join(OUT_DIR, "compare_session.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-def rect(region):
-    return dict(x=region.x, y=region.y, width=region.width, height=region.height)
 
 
 def workers():
@@ -217,34 +205,17 @@ STEPS = [open_race, click_raylab_tab, scroll_sidebar_down, start_unlimited, lamb
          shooter("compare_table_wide.png"), table_texts("table_wide")]
 
 
-def run_steps():
-    try:
-        if STEPS[0]() is False:  # a waiting step: again on the next tick
-            return 0.5
-        STEPS.pop(0)
-        if STEPS:
-            return 1.5
-    except Exception:
-        report["error"] = traceback.format_exc()
-    finish()
-    return None
-
-
-def watchdog():
-    report["error"] = f"the session made no progress for {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
-    finish()
-
-
-try:
+def set_up():
     import raylab
     raylab.register()
     bpy.app.timers.register(tick, first_interval=0.1)
-    bpy.app.timers.register(run_steps, first_interval=2.0)
-    # Progress: a step done, or the comparison's fraction moving.
-    def progress():
-        from raylab.blender import compare
-        return len(STEPS), getattr(compare.running_job(), "fraction", None)
-    watch_progress(progress, WATCHDOG_SECONDS, watchdog)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+
+
+def progress():
+    """A step done, or the comparison's fraction moving."""
+    from raylab.blender import compare
+    return len(STEPS), getattr(compare.running_job(), "fraction", None)
+
+
+# A waiting step (wait_until) is called again half a second later.
+SESSION.run(STEPS, set_up, wait=0.5, watchdog_seconds=WATCHDOG_SECONDS, progress=progress)

@@ -10,52 +10,26 @@ sidebar's rectangle in the window, where its tiles were found in the sidebar (as
 column's width the add-on computed, the UI scale and the caption's lines as they were drawn; for the
 last one also what Full Size opened; or "error".
 """
-import json
 import os
-import subprocess
 import sys
-import traceback
 
 import bpy
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.abspath(os.path.join(HERE, os.pardir, os.pardir))
-sys.path.insert(0, os.path.join(ROOT, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import call_in_main_window, click_raylab_tab, read_xwd, screenshot, show_sidebar, \
-    step_timer, view3d, watch_progress  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import call_in_main_window, click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
+from session import ROOT, rect, sidebar_pixels  # noqa: E402
 
-ARGS = sys.argv[sys.argv.index("--") + 1:]
-OUT_DIR, TARGETS = ARGS[0], ARGS[1:]
-os.makedirs(OUT_DIR, exist_ok=True)
+OUT_DIR, TARGETS = session.out_dir(), session.ARGS[1:]
 report = {"diagrams": {}}
+SESSION = session.Session(os.path.join(OUT_DIR, "diagrams_session.json"), report)
 looks = [0]  # every look, for the watchdog: scrolling is progress too
 WATCHDOG_SECONDS = 240
 SCROLL_TRIES = 80
 
-
-def finish():
-    with open(os.path.join(OUT_DIR, "diagrams_session.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-try:
-    import raylab  # noqa: E402
-    from raylab.blender import diagrams, levels, text_fit  # noqa: E402
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
-
-
-def sidebar_pixels():
-    """The sidebar as the X server shows it: (H, W, 3) floats, top row first."""
-    window, _, _, sidebar = view3d()
-    screen = read_xwd(subprocess.run(["xwd", "-root", "-silent"], capture_output=True, check=True).stdout)
-    top = screen.shape[0] - (window.y + window.height) + (window.height - sidebar.y - sidebar.height)
-    left = window.x + sidebar.x
-    return screen[top:top + sidebar.height, left:left + sidebar.width].astype(np.float32) / 255.0
+import raylab  # noqa: E402
+from raylab.blender import diagrams, levels, text_fit  # noqa: E402
 
 
 def find_tiles(pixels, expected, needed):
@@ -144,7 +118,7 @@ def steps_for(target, first):
         report.setdefault("gave_up", {})[target] = dict(
             computed, side=None if made is None else made[0], ui_scale=bpy.context.preferences.system.ui_scale,
             pixel_size=bpy.context.preferences.system.pixel_size, view_ui_scale=bpy.context.preferences.view.ui_scale,
-            sidebar=dict(x=sidebar.x, y=sidebar.y, width=sidebar.width, height=sidebar.height))
+            sidebar=rect(sidebar))
         if made is not None:
             for k, tile in enumerate(diagrams.tiles(diagrams._pictures[path], made[0])):
                 mpimg.imsave(os.path.join(OUT_DIR, f"gave_up_{key}_tile{k}.png"), np.asarray(tile[::-1, :, :3]))
@@ -164,7 +138,7 @@ def steps_for(target, first):
             label_room = column_width - text_fit.UNIT * text_fit.scale(bpy.context) * text_fit.TEXT_PADDING
         report["diagrams"][target] = dict(
             key=key, window_height=window.height,
-            sidebar=dict(x=sidebar.x, y=sidebar.y, width=sidebar.width, height=sidebar.height),
+            sidebar=rect(sidebar),
             tiles=[dict(row=r, col=c, difference=d) for d, r, c in found], tile_count=len(expected), side=made[0],
             column_width=column_width, label_room=label_room, unit=unit, blender_version=list(bpy.app.version),
             padding=diagrams.preview_padding(bpy.context),
@@ -193,16 +167,5 @@ def steps_for(target, first):
 
 STEPS = [step for i, target in enumerate(TARGETS) for step in steps_for(target, i == 0)]
 
-
-def watchdog():
-    report["error"] = f"the session made no progress for {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
-    finish()
-
-
-try:
-    raylab.register()
-    bpy.app.timers.register(step_timer(STEPS, finish, report, interval=0.5), first_interval=2.0)
-    watch_progress(lambda: (len(STEPS), looks[0]), WATCHDOG_SECONDS, watchdog)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+SESSION.run(STEPS, raylab.register, interval=0.5, watchdog_seconds=WATCHDOG_SECONDS,
+            progress=lambda: (len(STEPS), looks[0]))

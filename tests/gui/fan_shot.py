@@ -15,18 +15,16 @@ import sys
 import bpy
 from mathutils import Euler
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
-sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
 import raylab  # noqa: E402
-from blender_window import plain_view, run_steps, screenshot, view3d  # noqa: E402
+from blender_window import plain_view, screenshot, view3d  # noqa: E402
 from raylab.blender import probe  # noqa: E402
 
-OUT_DIR = sys.argv[sys.argv.index("--") + 1]
-os.makedirs(OUT_DIR, exist_ok=True)
-STEM = os.path.join(OUT_DIR, "fan")
+STEM = os.path.join(session.out_dir(), "fan")
 FAN_SIZE = 64
 report = {}
+SESSION = session.Session(STEM + ".json", report)
 
 
 def set_up():
@@ -45,10 +43,8 @@ def set_up():
 
 def shot_fan_off():
     _, _, region, _ = view3d()
-    report.update(region=dict(x=region.x, y=region.y, width=region.width, height=region.height))
-    screenshot(STEM + "_off.png")
-    bpy.context.scene.raylab.fan_enabled = True
-    view3d().area.tag_redraw()
+    report.update(region=session.rect(region))
+    session.shoot_then_set(STEM + "_off.png", fan_enabled=True)
 
 
 def shot_fan_on():
@@ -57,4 +53,4 @@ def shot_fan_on():
                   status=probe.evaluate_probe(bpy.context.scene)["status"])
 
 
-run_steps(set_up, [shot_fan_off, shot_fan_on], report, STEM + ".json")
+SESSION.run([shot_fan_off, shot_fan_on], set_up)

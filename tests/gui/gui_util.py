@@ -13,7 +13,8 @@ import time
 import numpy as np
 from matplotlib.image import imread
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), os.pardir, os.pardir))
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, os.pardir, os.pardir))
 OUT = os.path.join(ROOT, "out", "gui")
 SCREEN = "-screen 0 1600x900x24"
 
@@ -32,12 +33,12 @@ def demo_blend(path):
     if os.path.exists(path):
         os.remove(path)
     subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1",
-                    "--python", os.path.join(os.path.dirname(os.path.abspath(__file__)), "save_demo_blend.py"),
+                    "--python", os.path.join(HERE, "save_demo_blend.py"),
                     "--", path], check=True, capture_output=True, timeout=120)
     return path
 
 
-HEARTBEAT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heartbeat.py")
+HEARTBEAT = os.path.join(HERE, "heartbeat.py")
 # How long a GUI Blender may go without a heartbeat (its main loop stopped: hung, or stuck in one long
 # call) before it is stopped. A slow machine slows the beats' work, not the beats.
 STALL_SECONDS = 180
@@ -81,6 +82,18 @@ def run_gui_blender(script, args, blend=None, timeout=None, extra=(), screen=SCR
     command += [blend] if blend else []
     command += ["--python", script, "--", *args]
     return run_watched(command)
+
+
+def run_session(script, report, blend, args=(), outputs=(), out=OUT, **options):
+    """Runs tests/gui/`script` in a GUI Blender (run_gui_blender, `options` its own) on `blend` with `out`
+    and `args` after `--`, once the report and the `outputs` (names in `out`) of a run before are
+    removed; returns the report it wrote (read_report: none, or one with an "error", fails)."""
+    os.makedirs(out, exist_ok=True)
+    for name in (report, *outputs):
+        if os.path.exists(os.path.join(out, name)):
+            os.remove(os.path.join(out, name))
+    process = run_gui_blender(os.path.join(HERE, script), [out, *args], blend, **options)
+    return read_report(os.path.join(out, report), process)
 
 
 def read_report(path, process=None):

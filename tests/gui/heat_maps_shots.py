@@ -10,39 +10,24 @@ OUT_DIR/heat_maps_picture.png (the picture as it is), OUT_DIR/heat_maps_window.p
 OUT_DIR/heat_maps_shots.json: the tasks' ticks, the record, and where each map lies in the
 window (from the Image Editor's view, in window pixels, y from the bottom); or "error".
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.join(HERE, os.pardir, os.pardir)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d, watch_progress  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
 
-OUT_DIR = sys.argv[sys.argv.index("--") + 1]
-os.makedirs(OUT_DIR, exist_ok=True)
+OUT_DIR = session.out_dir()
 LEVEL = "where_work_goes"
 WATCHDOG_SECONDS = 300
 report = {}
+SESSION = session.Session(os.path.join(OUT_DIR, "heat_maps_shots.json"), report)
 
-
-def finish():
-    with open(os.path.join(OUT_DIR, "heat_maps_shots.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-try:
-    import raylab  # noqa: E402
-    from raylab.blender import compare, heat_maps, levels  # noqa: E402
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+import raylab  # noqa: E402
+from raylab.blender import compare, heat_maps, levels  # noqa: E402
 
 
 def picture_area():
@@ -104,7 +89,7 @@ def shoot():
         bands.append(rect(left, height, height + heat_maps.NUMBER_BAND))  # their numbers under them
     report.update(record=record, maps=maps, bands=bands, window_height=window.height,
                   window=dict(x=window.x, y=window.y, width=window.width, height=window.height),
-                  region=dict(x=region.x, y=region.y, width=region.width, height=region.height),
+                  region=session.rect(region),
                   ticks=[done for _, done in levels.task_list(scene)])
     # The picture itself, as the README shows it.
     pixels = np.empty(len(image.pixels), np.float32)
@@ -135,33 +120,6 @@ def after_next():
 STEPS = [open_level, click_raylab_tab, press_render_heat_maps, wait_for_the_job, fit_the_picture, shoot,
          next_level, after_next]
 
-
-def run():
-    try:
-        step = STEPS[0]
-        if step() is False:  # a wait: try again on the next tick
-            return 1.0
-        STEPS.pop(0)
-        if STEPS:
-            return 1.5
-    except Exception:
-        report["error"] = traceback.format_exc()
-    finish()
-    return None
-
-
-def watchdog():
-    report["error"] = (f"the shots made no progress for {WATCHDOG_SECONDS} s; steps left: "
-                       f"{[s.__name__ for s in STEPS]}")
-    finish()
-
-
-try:
-    raylab.register()
-    bpy.app.timers.register(run, first_interval=2.0)
-    # Progress: a step done, or the job's fraction moving.
-    watch_progress(lambda: (len(STEPS), getattr(compare.running_job(), "fraction", None)), WATCHDOG_SECONDS,
-                   watchdog)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+# A wait (wait_for_the_job) is tried again a second later. Progress: a step done, or the job's fraction moving.
+SESSION.run(STEPS, raylab.register, wait=1.0, watchdog_seconds=WATCHDOG_SECONDS, what="the shots",
+            progress=lambda: (len(STEPS), getattr(compare.running_job(), "fraction", None)))

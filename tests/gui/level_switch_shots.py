@@ -11,29 +11,19 @@ as well: switch_undo.png and switch_undo_hidden.png. OUT_DIR/level_switch.json
 holds the 3D viewport's rectangle in the window per level (and "undo": the level Undo went back to), or
 "error".
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import screenshot, step_timer, view3d, watch_progress  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import screenshot, view3d  # noqa: E402
 
-ARGS = sys.argv[sys.argv.index("--") + 1:]
-OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
-os.makedirs(OUT_DIR, exist_ok=True)
+OUT_DIR, LEVEL_IDS = session.out_dir(), session.ARGS[1:]
 report = {"levels": {}}
+SESSION = session.Session(os.path.join(OUT_DIR, "level_switch.json"), report)
 WATCHDOG_SECONDS = 300
-
-
-def finish():
-    with open(os.path.join(OUT_DIR, "level_switch.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
 
 
 def hide_level_mesh():
@@ -93,8 +83,7 @@ def steps_for(level_id):
     def shoot():
         window, _, region, _ = view3d()
         screenshot(os.path.join(OUT_DIR, f"switch_{level_id}.png"))
-        report["levels"][level_id] = dict(window_height=window.height, region=dict(
-            x=region.x, y=region.y, width=region.width, height=region.height))
+        report["levels"][level_id] = dict(window_height=window.height, region=session.rect(region))
         hide_level_mesh()
 
     def shoot_hidden():
@@ -103,17 +92,10 @@ def steps_for(level_id):
     return [open_level, shoot, shoot_hidden]
 
 
-def watchdog():
-    report["error"] = f"the shots made no progress for {WATCHDOG_SECONDS} s; steps left: {len(STEPS)}"
-    finish()
-
-
-try:
+def set_up():
     import raylab
     raylab.register()
-    STEPS = [step for level_id in LEVEL_IDS for step in steps_for(level_id)] + undo_steps()
-    bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
-    watch_progress(lambda: len(STEPS), WATCHDOG_SECONDS, watchdog)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+
+
+SESSION.run([step for level_id in LEVEL_IDS for step in steps_for(level_id)] + undo_steps(), set_up,
+            watchdog_seconds=WATCHDOG_SECONDS, what="the shots")

@@ -11,47 +11,28 @@ viewport's and the sidebar's rectangles in the window, the level's boxes compute
 the level mesh and projected with bpy_extras.view3d_utils.location_3d_to_region_2d, and the probe's
 status; or "error".
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 import numpy as np
 from bpy_extras.view3d_utils import location_3d_to_region_2d
 from mathutils import Vector
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.join(HERE, os.pardir, os.pardir)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot as window_screenshot, show_sidebar, step_timer, view3d, \
-    watch_progress  # noqa: E402,E501
-ARGS = sys.argv[sys.argv.index("--") + 1:]
-OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
-os.makedirs(OUT_DIR, exist_ok=True)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import click_raylab_tab, screenshot as window_screenshot, show_sidebar, view3d  # noqa: E402
+from session import rect  # noqa: E402
+
+OUT_DIR, LEVEL_IDS = session.out_dir(), session.ARGS[1:]
 report = {"levels": {}}
+SESSION = session.Session(os.path.join(OUT_DIR, "levels_shots.json"), report)
 WATCHDOG_SECONDS = 240  # a window left open would keep the test waiting: quit with an error instead
 
-
-def finish():
-    with open(os.path.join(OUT_DIR, "levels_shots.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-try:
-    import raylab  # noqa: E402
-    from raylab.blender import levels, probe  # noqa: E402
-    from raylab.blender.experiments import leak  # noqa: E402
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+import raylab  # noqa: E402
+from raylab.blender import levels, probe  # noqa: E402
+from raylab.blender.experiments import leak  # noqa: E402
 BOX_EDGES = [(0, 1), (1, 3), (3, 2), (2, 0), (4, 5), (5, 7), (7, 6), (6, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
-
-
-def rect(region):
-    return dict(x=region.x, y=region.y, width=region.width, height=region.height)
 
 
 def screenshot(name):
@@ -155,17 +136,4 @@ def steps_for(level_id):
 
 STEPS = [step for level_id in LEVEL_IDS for step in steps_for(level_id)]
 STEPS.insert(1, click_raylab_tab)  # once: the sidebar keeps its tab from level to level
-
-
-def watchdog():
-    report["error"] = f"the shots made no progress for {WATCHDOG_SECONDS} s; {len(STEPS)} steps left"
-    finish()
-
-
-try:
-    raylab.register()
-    bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
-    watch_progress(lambda: len(STEPS), WATCHDOG_SECONDS, watchdog)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+SESSION.run(STEPS, raylab.register, watchdog_seconds=WATCHDOG_SECONDS, what="the shots")

@@ -11,23 +11,18 @@ tools write (the leak test, the heat maps) and with its mesh deleted; OUT_DIR/pa
 level, the sidebar's width and every text that does not fit (its width and its room), and
 OUT_DIR/panel_text_LEVEL.png the window.
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.join(HERE, os.pardir, os.pardir)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot, show_sidebar, step_timer, view3d  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
 
-ARGS = sys.argv[sys.argv.index("--") + 1:]
-OUT_DIR, LEVEL_IDS = ARGS[0], ARGS[1:]
-os.makedirs(OUT_DIR, exist_ok=True)
+OUT_DIR, LEVEL_IDS = session.out_dir(), session.ARGS[1:]
 report = {"levels": {}}
+SESSION = session.Session(os.path.join(OUT_DIR, "panel_text.json"), report)
 SPLIT_LABEL = 0.4  # the share of a split row Blender gives a property's label
 
 
@@ -224,18 +219,7 @@ def set_up():
     show_sidebar()
 
 
-def finish():
-    with open(os.path.join(OUT_DIR, "panel_text.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-try:
-    set_up()
-    steps = [step for level_id in LEVEL_IDS for step in steps_for(level_id)]
-    steps.insert(1, click_raylab_tab)  # once, with the first level open: the sidebar keeps its tab
-    # Half a second apart: a step measures what the panels draw, it waits for no picture (but the one shot).
-    bpy.app.timers.register(step_timer(steps, finish, report, interval=0.5), first_interval=2.0)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+steps = [step for level_id in LEVEL_IDS for step in steps_for(level_id)]
+steps.insert(1, click_raylab_tab)  # once, with the first level open: the sidebar keeps its tab
+# Half a second apart: a step measures what the panels draw, it waits for no picture (but the one shot).
+SESSION.run(steps, set_up, interval=0.5)

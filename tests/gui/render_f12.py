@@ -5,23 +5,21 @@ Everything runs from timers, as in an interactive session: the render job runs w
 The report holds where the render window's image region lies in the screenshot, the statistics line the
 engine sent to Blender, and scene["raylab_last_render"].
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
 import blender_window  # noqa: E402
+
+SCREENSHOT, REPORT = (os.path.abspath(path) for path in session.ARGS[:2])
+report = {"stats_sent": [], "errors": []}
+SESSION = session.Session(REPORT, report, indent=2, errors="errors")
+
 import raylab  # noqa: E402
 from raylab.blender import render_stats  # noqa: E402
-
-SCREENSHOT, REPORT = (os.path.abspath(path) for path in sys.argv[sys.argv.index("--") + 1:][:2])
-TIMEOUT_TICKS = 600   # 0.25 s each
-report = {"stats_sent": [], "errors": []}
-ticks = {"waited": 0, "after_done": 0}
 
 
 def record_stats_line(stats):
@@ -35,22 +33,11 @@ original_stats_line = render_stats.line
 render_stats.line = record_stats_line
 
 
-def finish():
-    with open(REPORT, "w") as file:
-        json.dump(report, file, indent=2)
-    bpy.ops.wm.quit_blender()
-
-
 def start_render():
-    try:
-        bpy.context.preferences.view.render_display_type = 'WINDOW'
-        scene = bpy.context.scene
-        scene.render.engine = 'RAYLAB'
-        blender_window.start_f12()
-        bpy.app.timers.register(wait_for_render, first_interval=0.5)
-    except Exception:
-        report["errors"].append(traceback.format_exc())
-        finish()
+    bpy.context.preferences.view.render_display_type = 'WINDOW'
+    scene = bpy.context.scene
+    scene.render.engine = 'RAYLAB'
+    blender_window.start_f12()
 
 
 def render_window():
@@ -62,35 +49,17 @@ def render_window():
     return None, None
 
 
-def wait_for_render():
-    try:
-        ticks["waited"] += 1
-        if ticks["waited"] > TIMEOUT_TICKS:
-            report["errors"].append("timed out waiting for the render")
-            finish()
-            return None
-        if bpy.app.is_job_running('RENDER') or "raylab_last_render" not in bpy.context.scene:
-            return 0.25
-        ticks["after_done"] += 1
-        if ticks["after_done"] < 6:   # let the render window draw the finished result and its stats
-            return 0.25
-        window, area = render_window()
-        if window is None:
-            report["errors"].append("no render window with the Render Result")
-            finish()
-            return None
-        region = next(r for r in area.regions if r.type == 'WINDOW')
-        report["window"] = dict(width=window.width, height=window.height)
-        report["image_region"] = dict(x=region.x, y=region.y,
-                                      width=region.width, height=region.height)
-        report["last_render"] = bpy.context.scene["raylab_last_render"].to_dict()
-        blender_window.screenshot(SCREENSHOT, window)
-        finish()
-    except Exception:
-        report["errors"].append(traceback.format_exc())
-        finish()
-    return None
+def shoot():
+    window, area = render_window()
+    if window is None:
+        raise RuntimeError("no render window with the Render Result")
+    region = next(r for r in area.regions if r.type == 'WINDOW')
+    report["window"] = dict(width=window.width, height=window.height)
+    report["image_region"] = session.rect(region)
+    report["last_render"] = bpy.context.scene[render_stats.LAST_RENDER].to_dict()
+    blender_window.screenshot(SCREENSHOT, window)
 
 
-raylab.register()
-bpy.app.timers.register(start_render, first_interval=1.0)
+# The render window draws the finished result and its stats for 6 polls (0.25 s each), then the shot.
+SESSION.run([start_render, session.wait_for_f12(settle_ticks=6), shoot], raylab.register, first_interval=1.0,
+            interval=0.25)

@@ -17,29 +17,19 @@ import sys
 import bpy
 from mathutils import Euler
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
-sys.path.insert(0, HERE)
-import raylab  # noqa: E402
-from blender_window import click_raylab_tab, plain_view, run_steps, screenshot, show_sidebar, view3d  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import click_raylab_tab, plain_view, screenshot, show_sidebar, view3d  # noqa: E402
 from raylab.blender import cost_overlay, overlay, probe, text_fit  # noqa: E402
+from session import rect  # noqa: E402
 
-OUT_DIR = sys.argv[sys.argv.index("--") + 1]
-os.makedirs(OUT_DIR, exist_ok=True)
-STEM = os.path.join(OUT_DIR, "structure_panel")
+STEM = os.path.join(session.out_dir(), "structure_panel")
 report = {}
-
-
-def rect(region):
-    return dict(x=region.x, y=region.y, width=region.width, height=region.height)
+SESSION = session.Session(STEM + ".json", report)
 
 
 def set_up():
-    raylab.register()
-    scene = bpy.context.scene
-    for obj in list(scene.objects):
-        if obj.type == 'MESH':
-            bpy.data.objects.remove(obj)
+    scene = session.registered_scene_without_meshes()
     bpy.ops.mesh.primitive_monkey_add(location=(0.0, 0.0, 0.0))
     base = bpy.context.active_object
     base.name = "Suzanne linked"
@@ -61,19 +51,11 @@ def set_up():
     show_sidebar()
 
 
-STEPS = []
+STEPS = session.Steps([click_raylab_tab])
 WHEEL_STEPS = 12  # of the sidebar: past the Levels panel, the Structure panel's end in view
 
 
-def step(function):
-    STEPS.append(function)
-    return function
-
-
-STEPS.append(click_raylab_tab)
-
-
-@step
+@STEPS
 def shot_boxes():
     _, area, region, sidebar = view3d()
     report.update(region=rect(region), sidebar=rect(sidebar), line_color=list(bpy.context.scene.raylab.line_color))
@@ -82,7 +64,7 @@ def shot_boxes():
     area.tag_redraw()
 
 
-@step
+@STEPS
 def shot_heat():
     _, area, region, _ = view3d()
     rv3d = area.spaces.active.region_3d
@@ -94,7 +76,7 @@ def shot_heat():
     area.tag_redraw()
 
 
-@step
+@STEPS
 def scroll_to_the_structure_panels_end():
     """The Levels panel comes first: wheel the sidebar down, as a user does (simulated wheel events)."""
     window, _, _, sidebar = view3d()
@@ -106,7 +88,7 @@ def scroll_to_the_structure_panels_end():
     text_fit.RECORD = []
 
 
-@step
+@STEPS
 def shot_key():
     scene = bpy.context.scene
     screenshot(STEM + "_key.png")
@@ -121,7 +103,7 @@ def shot_key():
     view3d().area.tag_redraw()
 
 
-@step
+@STEPS
 def shot_probe():
     screenshot(STEM + "_probe.png")
     report.update(probe_lines=[list(entry) for entry in text_fit.RECORD],
@@ -130,4 +112,4 @@ def shot_probe():
     text_fit.RECORD = None
 
 
-run_steps(set_up, STEPS, report, STEM + ".json")
+SESSION.run(STEPS, set_up)

@@ -24,17 +24,16 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, os.pardir, os.pardir, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import call_in_main_window, click_raylab_tab, screenshot, show_sidebar, start_f12, view3d, \
-    watch_progress  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import call_in_main_window, click_raylab_tab, screenshot, show_sidebar, start_f12, \
+    view3d  # noqa: E402
 
-OUT_DIR = sys.argv[sys.argv.index("--") + 1]
-os.makedirs(OUT_DIR, exist_ok=True)
-REPORT = os.path.join(OUT_DIR, "student_session.json")
+OUT_DIR = session.out_dir()
 report = {"runs": []}
 STARTED = time.monotonic()
+SESSION = session.Session(os.path.join(OUT_DIR, "student_session.json"), report, indent=1,
+                          finishing=lambda: report.update(seconds=round(time.monotonic() - STARTED, 1)))
 POLL = 0.25          # seconds between looks while waiting
 SETTLE = 1.2         # a step that should tick nothing: the add-on's timer (every 0.5 s) has looked by then
 TICK_WAIT = 45.0     # a step that should tick: the longest wait for it (a slow machine, a busy main loop)
@@ -43,25 +42,8 @@ RENDER_WAIT = 120.0  # F12 (320 x 240 to 480 x 360 pixels): the longest wait for
 WATCHDOG_SECONDS = 240
 ROD_MOVE = 2.0       # metres, as the rod task says
 
-
-def finish():
-    report["seconds"] = round(time.monotonic() - STARTED, 1)
-    with open(REPORT, "w") as f:
-        json.dump(report, f, indent=1)
-    try:
-        bpy.ops.wm.quit_blender()
-    except RuntimeError:
-        # A Blender stuck refusing every operator ("can't modify blend data in this state", the F12
-        # lock-up render_engine.py describes) cannot quit: leave without it, the report is written.
-        os._exit(1)
-
-
-try:
-    import raylab  # noqa: E402
-    from raylab.blender import compare, heat_maps, levels, probe, structure_cache  # noqa: E402
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+import raylab  # noqa: E402
+from raylab.blender import compare, heat_maps, levels, probe, structure_cache  # noqa: E402
 
 
 # --- what the student sees and does -------------------------------------------------------------------
@@ -389,42 +371,27 @@ current = {}
 
 
 def drive():
+    """The session's one step: the seconds until it is called again, or None once every run is done."""
+    if "steps" not in current:
+        if not RUNS:
+            return None
+        level_id, way, script = RUNS.pop(0)
+        run = dict(level=level_id, way=way, steps=[],
+                   tasks=[task.text for task in levels.find_level(level_id).tasks])
+        report["runs"].append(run)
+        current.update(steps=script(run), run=run)
     try:
-        if "steps" not in current:
-            if not RUNS:
-                finish()
-                return None
-            level_id, way, script = RUNS.pop(0)
-            run = dict(level=level_id, way=way, steps=[],
-                       tasks=[task.text for task in levels.find_level(level_id).tasks])
-            report["runs"].append(run)
-            current.update(steps=script(run), run=run)
-        try:
-            return next(current["steps"])
-        except StopIteration:
-            current.clear()
-            return 0.5
-        except Exception:
-            current["run"]["error"] = traceback.format_exc()
-            current.clear()
-            return 0.5
+        return next(current["steps"])
+    except StopIteration:
+        current.clear()
+        return 0.5
     except Exception:
-        report["error"] = traceback.format_exc()
-        finish()
-        return None
+        current["run"]["error"] = traceback.format_exc()
+        current.clear()
+        return 0.5
 
 
-def watchdog():
-    report["error"] = f"the student made no progress for {WATCHDOG_SECONDS} s; {len(RUNS)} runs left"
-    finish()
-
-
-try:
-    raylab.register()
-    bpy.app.timers.register(drive, first_interval=3.0)
-    watch_progress(lambda: (sum(len(r["steps"]) for r in report["runs"]), len(report["runs"]),
-                            getattr(compare.running_job(), "fraction", None), the_scene().frame_current),
-                   WATCHDOG_SECONDS, watchdog)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+SESSION.run([drive], raylab.register, first_interval=3.0, watchdog_seconds=WATCHDOG_SECONDS,
+            what=lambda: f"the student ({len(RUNS)} runs left)",
+            progress=lambda: (sum(len(r["steps"]) for r in report["runs"]), len(report["runs"]),
+                              getattr(compare.running_job(), "fraction", None), the_scene().frame_current))

@@ -10,21 +10,16 @@ import os
 
 import pytest
 
-from gui_util import OUT, ROOT, Region, changed, load_rgb, read_report, run_gui_blender, start_blend
+from gui_util import OUT, Region, changed, load_rgb, run_session, start_blend
 
-SCRIPT = os.path.join(ROOT, "tests", "gui", "compare_session.py")
 SHOTS = ("compare_running.png", "compare_cancelled.png", "compare_skipped.png", "compare_table.png",
          "compare_table_wide.png")
 
 
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
-    for name in ("compare_session.json", *SHOTS):
-        if os.path.exists(os.path.join(OUT, name)):
-            os.remove(os.path.join(OUT, name))
-    blend = start_blend(tmp_path_factory.mktemp("compare"))
-    process = run_gui_blender(SCRIPT, [OUT], blend, timeout=600, extra=["--enable-event-simulate"])
-    return read_report(os.path.join(OUT, "compare_session.json"), process)
+    return run_session("compare_session.py", "compare_session.json", start_blend(tmp_path_factory.mktemp("compare")),
+                       outputs=SHOTS, extra=["--enable-event-simulate"])
 
 
 def sidebar(session, name):

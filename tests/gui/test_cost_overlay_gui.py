@@ -1,9 +1,7 @@
 """The viewport cost heat map as a user sees it: Blender in a real window under Xvfb, a sphere under the
 BVH; with the heat map on, the view is coloured where the sphere projects and nowhere else, and the
 legend is drawn. Runs cost_overlay_shot.py inside Blender; screenshots land in out/gui/."""
-import json
 import os
-import subprocess
 
 import numpy as np
 import pytest
@@ -16,23 +14,10 @@ OUT = os.path.join(ROOT, "out", "gui")
 
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
-    blend = str(tmp_path_factory.mktemp("cost") / "start.blend")
-    subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
-                    f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={blend!r})"],
-                   check=True, capture_output=True, timeout=120)
-    for suffix in ("_off.png", "_on.png", ".json"):
-        path = os.path.join(OUT, "cost_overlay" + suffix)
-        if os.path.exists(path):
-            os.remove(path)
-    run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
-                          "--python-exit-code", "1", blend,
-                          "--python", os.path.join(ROOT, "tests", "gui", "cost_overlay_shot.py"), "--", OUT],
-                         capture_output=True, text=True, timeout=300)
-    report_path = os.path.join(OUT, "cost_overlay.json")
-    assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:]
-    with open(report_path) as f:
-        report = json.load(f)
-    assert "error" not in report, report["error"]
+    report = gui_util.run_session("cost_overlay_shot.py", "cost_overlay.json",
+                                  gui_util.start_blend(tmp_path_factory.mktemp("cost")),
+                                  outputs=("cost_overlay_off.png", "cost_overlay_on.png"),
+                                  extra=["--python-exit-code", "1"])
     r = report["region"]
     images = []
     for suffix in ("_off.png", "_on.png"):

@@ -15,12 +15,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from gui_util import OUT, ROOT, Region, load_rgb, read_report, run_gui_blender, start_blend
+from gui_util import OUT, ROOT, Region, load_rgb, run_session, start_blend
 
 sys.path.insert(0, ROOT)
 from tools import panel_figure  # noqa: E402
 
-SCRIPT = os.path.join(ROOT, "tests", "gui", "diagrams_session.py")
 # A diagram of four squares with the drawing fixed in it, the other one fixed, and the first at UI scale 2.
 TARGETS = ("race/work_per_ray.png", "octree_1/separating_axis.png", "race/work_per_ray.png@2.0")
 PREVIEW_PAD = 4  # Blender's padding around a preview in its square (addon/raylab/blender/diagrams.py)
@@ -28,12 +27,8 @@ PREVIEW_PAD = 4  # Blender's padding around a preview in its square (addon/rayla
 
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
-    report_path = os.path.join(OUT, "diagrams_session.json")
-    if os.path.exists(report_path):
-        os.remove(report_path)
-    blend = start_blend(tmp_path_factory.mktemp("diagrams"))
-    process = run_gui_blender(SCRIPT, [OUT, *TARGETS], blend, extra=["--enable-event-simulate"])
-    return read_report(report_path, process)["diagrams"]
+    return run_session("diagrams_session.py", "diagrams_session.json", start_blend(tmp_path_factory.mktemp("diagrams")),
+                       TARGETS, extra=["--enable-event-simulate"])["diagrams"]
 
 
 def diagram_path(target):

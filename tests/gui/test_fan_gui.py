@@ -8,7 +8,6 @@ import pytest
 
 import gui_util
 
-FAN_SHOT = os.path.join(gui_util.ROOT, "tests", "gui", "fan_shot.py")
 # Of the goat's pixels with the fan off, the share that must look the same with the fan on. Measured on
 # Blender 3.4: 0.87 with the fan drawn as raylab draws it (256 lines and a dot where each ray ends), 0.15
 # with every ray drawn as a line (RAYLAB_FAN_ALL_LINES=1 in fan_shot.py), as before issue 12.
@@ -23,15 +22,10 @@ def goat_mask(rgb):
 
 @pytest.fixture(scope="module")
 def fan_shots(tmp_path_factory):
-    os.makedirs(gui_util.OUT, exist_ok=True)
     stem = os.path.join(gui_util.OUT, "fan")
-    for suffix in ("_off.png", "_on.png", ".json"):
-        if os.path.exists(stem + suffix):
-            os.remove(stem + suffix)
     blend = gui_util.demo_blend(str(tmp_path_factory.mktemp("fan") / "demo.blend"))
-    process = gui_util.run_gui_blender(FAN_SHOT, [gui_util.OUT], blend=blend, timeout=300,
-                                       extra=("--python-exit-code", "1"))
-    report = gui_util.read_report(stem + ".json", process)
+    report = gui_util.run_session("fan_shot.py", "fan.json", blend, outputs=("fan_off.png", "fan_on.png"),
+                                  extra=("--python-exit-code", "1"))
     off, on = gui_util.load_rgb(stem + "_off.png"), gui_util.load_rgb(stem + "_on.png")
     region = gui_util.Region(report["region"], off.shape[0])
     return report, region.crop(off), region.crop(on)

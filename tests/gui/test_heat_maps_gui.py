@@ -12,23 +12,18 @@ import sys
 import numpy as np
 import pytest
 
-from gui_util import OUT, ROOT, load_rgb, read_report, run_gui_blender, start_blend
+from gui_util import OUT, ROOT, load_rgb, run_session, start_blend
 
 sys.path.insert(0, os.path.join(ROOT, "addon"))
 import raylab  # noqa: E402
 
-SCRIPT = os.path.join(ROOT, "tests", "gui", "heat_maps_shots.py")
-SHOTS = ("heat_maps_picture.png", "heat_maps_window.png", "heat_maps_shots.json")
+SHOTS = ("heat_maps_picture.png", "heat_maps_window.png")
 
 
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
-    for name in SHOTS:
-        if os.path.exists(os.path.join(OUT, name)):
-            os.remove(os.path.join(OUT, name))
-    blend = start_blend(tmp_path_factory.mktemp("heat_maps"))
-    process = run_gui_blender(SCRIPT, [OUT], blend, timeout=400, extra=["--enable-event-simulate"])
-    return read_report(os.path.join(OUT, "heat_maps_shots.json"), process)
+    return run_session("heat_maps_shots.py", "heat_maps_shots.json", start_blend(tmp_path_factory.mktemp("heat_maps")),
+                       outputs=SHOTS, extra=["--enable-event-simulate"])
 
 
 def heat_distance(pixels):

@@ -9,24 +9,18 @@ import os
 import numpy as np
 import pytest
 
-from gui_util import OUT, ROOT, Region, changed, load_rgb, read_report, run_gui_blender, start_blend
+from gui_util import OUT, ROOT, Region, changed, load_rgb, run_session, start_blend
 
 LEVELS_DIR = os.path.join(ROOT, "levels")
 # The list's order matters little: each level after the one before it, the first after the user's scene.
 LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
-SCRIPT = os.path.join(ROOT, "tests", "gui", "level_switch_shots.py")
 
 
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
-    for name in [*LEVEL_IDS, "undo"]:
-        for suffix in ("", "_hidden"):
-            path = os.path.join(OUT, f"switch_{name}{suffix}.png")
-            if os.path.exists(path):
-                os.remove(path)
-    blend = start_blend(tmp_path_factory.mktemp("switch"))
-    process = run_gui_blender(SCRIPT, [OUT, *LEVEL_IDS], blend, timeout=400)
-    return read_report(os.path.join(OUT, "level_switch.json"), process)
+    return run_session("level_switch_shots.py", "level_switch.json", start_blend(tmp_path_factory.mktemp("switch")),
+                       LEVEL_IDS, outputs=[f"switch_{name}{suffix}.png" for name in [*LEVEL_IDS, "undo"]
+                                           for suffix in ("", "_hidden")])
 
 
 def luminance(pixels):

@@ -9,25 +9,18 @@ import os
 import numpy as np
 import pytest
 
-from gui_util import OUT, ROOT, Region, changed, dilate, load_rgb, read_report, run_gui_blender, segments_mask, \
-    start_blend
+from gui_util import OUT, Region, changed, dilate, load_rgb, run_session, segments_mask, start_blend
 
 LEVELS = ("aabb_1", "octree_1", "octree_2")
 LEAK_LEVEL = "where_methods_fail"  # shot before and after Count Leaking Rays
-SCRIPT = os.path.join(ROOT, "tests", "gui", "levels_shots.py")
 
 
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
-    stale = ["levels_shots.json"] + [f"level_{level}{suffix}.png" for level in (*LEVELS, LEAK_LEVEL)
-                                     for suffix in ("", "_boxes_off", "_probe_off", "_leaks")]
-    for name in stale:
-        if os.path.exists(os.path.join(OUT, name)):
-            os.remove(os.path.join(OUT, name))
-    blend = start_blend(tmp_path_factory.mktemp("levels"))
-    process = run_gui_blender(SCRIPT, [OUT, *LEVELS, LEAK_LEVEL], blend, timeout=300,
-                              extra=["--enable-event-simulate"])
-    return read_report(os.path.join(OUT, "levels_shots.json"), process)["levels"]
+    stale = [f"level_{level}{suffix}.png" for level in (*LEVELS, LEAK_LEVEL)
+             for suffix in ("", "_boxes_off", "_probe_off", "_leaks")]
+    return run_session("levels_shots.py", "levels_shots.json", start_blend(tmp_path_factory.mktemp("levels")),
+                       (*LEVELS, LEAK_LEVEL), outputs=stale, extra=["--enable-event-simulate"])["levels"]
 
 
 def images(report, level_id, *suffixes):

@@ -10,11 +10,10 @@ import os
 
 import pytest
 
-from gui_util import OUT, ROOT, read_report, run_gui_blender, start_blend
+from gui_util import OUT, ROOT, run_session, start_blend
 
 LEVELS = sorted(d for d in os.listdir(os.path.join(ROOT, "levels"))
                 if os.path.exists(os.path.join(ROOT, "levels", d, "level.toml")))
-SCRIPT = os.path.join(ROOT, "tests", "gui", "panel_text_session.py")
 DEFAULT_SIDEBAR = (200, 320)  # the default sidebar: 229 px on Blender 3.4, 291 on 4.3 and 5.2 (UI scale 1)
 
 
@@ -25,15 +24,9 @@ SCREENS = ["1600x900"] + ([] if os.environ.get("RAYLAB_IN_ROOT") else ["1280x720
 
 @pytest.fixture(scope="module", params=SCREENS)
 def measured(request, tmp_path_factory):
-    out = os.path.join(OUT, f"panel_text_{request.param}")
-    os.makedirs(out, exist_ok=True)
-    report_path = os.path.join(out, "panel_text.json")
-    if os.path.exists(report_path):
-        os.remove(report_path)
-    blend = start_blend(tmp_path_factory.mktemp("panel_text"))
-    process = run_gui_blender(SCRIPT, [out, *LEVELS], blend, extra=["--enable-event-simulate"],
-                              screen=f"-screen 0 {request.param}x24")
-    return read_report(report_path, process)["levels"]
+    return run_session("panel_text_session.py", "panel_text.json", start_blend(tmp_path_factory.mktemp("panel_text")),
+                       LEVELS, out=os.path.join(OUT, f"panel_text_{request.param}"), extra=["--enable-event-simulate"],
+                       screen=f"-screen 0 {request.param}x24")["levels"]
 
 
 def test_every_level_was_measured_at_the_default_sidebar_width(measured):

@@ -7,9 +7,8 @@ import os
 
 import pytest
 
-from gui_util import OUT, ROOT, Region, changed, load_rgb, read_report, run_gui_blender, start_blend
+from gui_util import OUT, ROOT, Region, changed, load_rgb, run_session, start_blend
 
-SCRIPT = os.path.join(ROOT, "tests", "gui", "student_session.py")
 LEVELS_DIR = os.path.join(ROOT, "levels")
 LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
 # The rod task says "2 m or more along any axis, either way".
@@ -18,13 +17,9 @@ ROD_WAYS = ("rod up", "rod down", "rod right", "rod left", "rod away", "rod towa
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    for name in ("student_session.json", "student_bvh_1_leaves_8.png", "student_bvh_1_leaves_1.png"):
-        if os.path.exists(os.path.join(OUT, name)):
-            os.remove(os.path.join(OUT, name))
-    blend = start_blend(tmp_path_factory.mktemp("student"))
-    process = run_gui_blender(SCRIPT, [OUT], blend, extra=["--enable-event-simulate"])
-    report = read_report(os.path.join(OUT, "student_session.json"), process)
-    return report["runs"]
+    return run_session("student_session.py", "student_session.json", start_blend(tmp_path_factory.mktemp("student")),
+                       outputs=("student_bvh_1_leaves_8.png", "student_bvh_1_leaves_1.png"),
+                       extra=["--enable-event-simulate"])["runs"]
 
 
 def runs_of(runs, level_id):

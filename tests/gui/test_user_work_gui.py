@@ -6,24 +6,18 @@ level.
 
 Runs tests/gui/user_work_session.py inside Blender (with --enable-event-simulate, to click the raylab tab).
 """
-import os
 
 import pytest
 
-from gui_util import OUT, ROOT, read_report, run_gui_blender, start_blend
+from gui_util import run_session, start_blend
 
-SCRIPT = os.path.join(ROOT, "tests", "gui", "user_work_session.py")
 AABB_1 = "raylab: AABB 1: the bounding box"
 
 
 @pytest.fixture(scope="module")
 def steps(tmp_path_factory):
-    path = os.path.join(OUT, "user_work.json")
-    if os.path.exists(path):
-        os.remove(path)
-    blend = start_blend(tmp_path_factory.mktemp("user_work"))
-    process = run_gui_blender(SCRIPT, [OUT], blend, extra=["--enable-event-simulate"])
-    return read_report(path, process)
+    return run_session("user_work_session.py", "user_work.json", start_blend(tmp_path_factory.mktemp("user_work")),
+                       extra=["--enable-event-simulate"])
 
 
 def test_a_new_scene_made_in_a_level_starts_without_the_level(steps):

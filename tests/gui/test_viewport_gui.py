@@ -4,9 +4,7 @@ the status text in the top-left corner only when the probe is on.
 
 Runs viewport_shot.py inside Blender; screenshots land in out/gui/.
 """
-import json
 import os
-import subprocess
 import sys
 
 import numpy as np
@@ -23,26 +21,14 @@ import gui_util  # noqa: E402
 @pytest.fixture(scope="module")
 def empty_blend(tmp_path_factory):
     """A saved default scene: opening a file keeps the splash screen out of the screenshots."""
-    path = str(tmp_path_factory.mktemp("viewport") / "start.blend")
-    subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
-                    f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={path!r})"],
-                   check=True, capture_output=True, timeout=120)
-    return path
+    return gui_util.start_blend(tmp_path_factory.mktemp("viewport"))
 
 
 def shoot(structure, blend):
-    for suffix in ("_off.png", "_on.png", ".json"):
-        path = os.path.join(OUT, f"viewport_{structure}{suffix}")
-        if os.path.exists(path):
-            os.remove(path)
     # --python-exit-code: a script that fails to start quits Blender instead of leaving the window open.
-    gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
-                    "--python-exit-code", "1", blend,
-                    "--python", os.path.join(ROOT, "tests", "gui", "viewport_shot.py"), "--", OUT, structure],
-                   capture_output=True, timeout=300)
-    with open(os.path.join(OUT, f"viewport_{structure}.json")) as f:
-        report = json.load(f)
-    assert "error" not in report, report["error"]
+    report = gui_util.run_session("viewport_shot.py", f"viewport_{structure}.json", blend, [structure],
+                                  outputs=(f"viewport_{structure}_off.png", f"viewport_{structure}_on.png"),
+                                  extra=["--python-exit-code", "1"])
     off = imread(os.path.join(OUT, f"viewport_{structure}_off.png"))[:, :, :3]
     on = imread(os.path.join(OUT, f"viewport_{structure}_on.png"))[:, :, :3]
     return report, off, on
@@ -145,13 +131,9 @@ def test_overlay_and_probe_in_the_viewport(structure, empty_blend):
 @pytest.fixture(scope="module")
 def structure_panel(empty_blend):
     """structure_panel_shot.py: an artist's 26 objects under the octree, the sidebar at its default width."""
-    for suffix in ("_boxes.png", "_heat.png", "_key.png", "_probe.png", ".json"):
-        path = os.path.join(OUT, "structure_panel" + suffix)
-        if os.path.exists(path):
-            os.remove(path)
-    process = gui_util.run_gui_blender(os.path.join(ROOT, "tests", "gui", "structure_panel_shot.py"), [OUT],
-                                       empty_blend, extra=["--enable-event-simulate"])
-    report = gui_util.read_report(os.path.join(OUT, "structure_panel.json"), process)
+    report = gui_util.run_session("structure_panel_shot.py", "structure_panel.json", empty_blend,
+                                  outputs=[f"structure_panel_{name}.png" for name in ("boxes", "heat", "key", "probe")],
+                                  extra=["--enable-event-simulate"])
     images = {name: gui_util.load_rgb(os.path.join(OUT, f"structure_panel_{name}.png"))
               for name in ("boxes", "heat", "key")}
     return report, images

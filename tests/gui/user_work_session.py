@@ -8,22 +8,18 @@ added, Next; then Undo; then a cube added to the level's own scene and Next agai
 OUT_DIR/user_work.json holds what the window showed after each step; OUT_DIR/user_work_new_scene.png the
 window with the user's new scene.
 """
-import json
 import os
 import sys
-import traceback
 
 import bpy
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.join(HERE, os.pardir, os.pardir)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
-sys.path.insert(0, HERE)
-from blender_window import click_raylab_tab, screenshot, show_sidebar, step_timer, view3d  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
 
-OUT_DIR = sys.argv[sys.argv.index("--") + 1]
-os.makedirs(OUT_DIR, exist_ok=True)
+OUT_DIR = session.out_dir()
 report = {}
+SESSION = session.Session(os.path.join(OUT_DIR, "user_work.json"), report)
 
 
 def in_view(operator, **properties):
@@ -84,17 +80,10 @@ STEPS = [open_aabb_1, click_raylab_tab, lambda: seen("level"),
          press_next, add_cube_to_level, press_next, lambda: None, lambda: seen("after_next_from_level")]
 
 
-def finish():
-    with open(os.path.join(OUT_DIR, "user_work.json"), "w") as f:
-        json.dump(report, f)
-    bpy.ops.wm.quit_blender()
-
-
-try:
+def set_up():
     import raylab
     raylab.register()
     show_sidebar()
-    bpy.app.timers.register(step_timer(STEPS, finish, report), first_interval=2.0)
-except Exception:
-    report["error"] = traceback.format_exc()
-    finish()
+
+
+SESSION.run(STEPS, set_up)

@@ -15,15 +15,12 @@ import traceback
 
 import bpy
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.join(HERE, os.pardir, os.pardir)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
-sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
 from blender_window import view3d  # noqa: E402
-import raylab  # noqa: E402
 from raylab.blender import draw, overlay, structure_cache  # noqa: E402
 
-ARGS = sys.argv[sys.argv.index("--") + 1:]
+ARGS = session.ARGS
 MESH = ARGS[0]
 STRUCTURE = ARGS[1] if len(ARGS) > 1 and not ARGS[1].startswith("--") else "octree"
 
@@ -37,11 +34,7 @@ def redraw_seconds(iterations):
 
 
 def measure():
-    raylab.register()
-    scene = bpy.context.scene
-    for obj in list(scene.objects):
-        if obj.type == 'MESH':
-            bpy.data.objects.remove(obj)
+    scene = session.registered_scene_without_meshes()
     bpy.ops.wm.obj_import(filepath=MESH)
     obj = bpy.context.selected_objects[0]
     settings = scene.raylab
@@ -85,7 +78,7 @@ def run():
         measure()
     except Exception:
         traceback.print_exc()
-    bpy.ops.wm.quit_blender()
+    session.quit_blender()
 
 
 bpy.app.timers.register(run, first_interval=1.0)

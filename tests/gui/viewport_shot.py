@@ -16,26 +16,19 @@ import bpy
 from bpy_extras.view3d_utils import location_3d_to_region_2d
 from mathutils import Euler, Vector
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.join(HERE, os.pardir, os.pardir)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
-sys.path.insert(0, HERE)
-import raylab  # noqa: E402
-from blender_window import plain_view, run_steps, screenshot, view3d  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session  # noqa: E402  (puts the checkout's add-on on sys.path)
+from blender_window import plain_view, screenshot, view3d  # noqa: E402
 from raylab.blender import overlay, probe, structure_cache  # noqa: E402
 
-OUT_DIR, STRUCTURE = sys.argv[sys.argv.index("--") + 1:][:2]
-os.makedirs(OUT_DIR, exist_ok=True)
-STEM = os.path.join(OUT_DIR, f"viewport_{STRUCTURE}")
+STRUCTURE = session.ARGS[1]
+STEM = os.path.join(session.out_dir(), f"viewport_{STRUCTURE}")
 report = {"structure": STRUCTURE}
+SESSION = session.Session(STEM + ".json", report)
 
 
 def set_up():
-    raylab.register()
-    scene = bpy.context.scene
-    for obj in list(scene.objects):
-        if obj.type == 'MESH':
-            bpy.data.objects.remove(obj)
+    scene = session.registered_scene_without_meshes()
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=1.5)
     settings = scene.raylab
     settings.structure = STRUCTURE
@@ -66,7 +59,7 @@ def describe():
         edges += [(base + int(a), base + int(b)) for a, b in geometry.indices]
     report.update(
         window_size=(window.width, window.height),
-        region=dict(x=region.x, y=region.y, width=region.width, height=region.height),
+        region=session.rect(region),
         points=points, edges=edges, line_color=list(scene.raylab.line_color),
     )
     result = probe.evaluate_probe(scene)
@@ -75,25 +68,18 @@ def describe():
                   hit_point=hit and (hit.x, hit.y), hit_color=list(probe.HIT_COLOR))
 
 
-STEPS = []
+STEPS = session.Steps()
 
 
-def step(function):
-    STEPS.append(function)
-    return function
-
-
-@step
+@STEPS
 def shot_probe_off():
     describe()
-    screenshot(STEM + "_off.png")
-    bpy.context.scene.raylab.probe_enabled = True
-    view3d().area.tag_redraw()
+    session.shoot_then_set(STEM + "_off.png", probe_enabled=True)
 
 
-@step
+@STEPS
 def shot_probe_on():
     screenshot(STEM + "_on.png")
 
 
-run_steps(set_up, STEPS, report, STEM + ".json")
+SESSION.run(STEPS, set_up)
