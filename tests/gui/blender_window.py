@@ -135,7 +135,8 @@ def screenshot(path, window=None):
 
 
 def read_xwd(data):
-    """(H, W, 3) uint8 of an X window dump of a TrueColor screen of 24 or 32 bits per pixel (what Xvfb -screen WxHx24 gives)."""
+    """(H, W, 3) uint8 of an X window dump of a TrueColor screen of 24 or 32 bits per pixel (what Xvfb
+    -screen WxHx24 gives)."""
     header = np.frombuffer(data[:100], ">u4")
     header_size, width, height, byte_order, bits_per_pixel, bytes_per_line, ncolors = (
         int(header[0]), int(header[4]), int(header[5]), int(header[7]), int(header[11]), int(header[12]),

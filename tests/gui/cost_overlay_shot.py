@@ -53,7 +53,8 @@ def shot_on():
     report.update(region=session.rect(region),
                   sphere=[(p.x, p.y) for p in projected if p is not None],
                   columns=grid.columns, rows=grid.rows, cells_with_work=int((grid.counts > 0).sum()),
-                  hardest=int(grid.counts.max()), legend=dict(origin=cost_overlay.LEGEND_ORIGIN, size=cost_overlay.LEGEND_SIZE))
+                  hardest=int(grid.counts.max()),
+                  legend=dict(origin=cost_overlay.LEGEND_ORIGIN, size=cost_overlay.LEGEND_SIZE))
 
 
 SESSION.run(STEPS, set_up)

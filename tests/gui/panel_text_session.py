@@ -137,7 +137,8 @@ def overflowing(root, width, context):
         if node.kind == "row" and children:
             # An icon-only button takes an icon's room; the other items share the rest.
             icons = [c for c in children if c.text == ""]
-            rest = (inner - len(icons) * unit * (text_fit.ICON + text_fit.TEXT_PADDING)) / max(1, len(children) - len(icons))
+            rest = ((inner - len(icons) * unit * (text_fit.ICON + text_fit.TEXT_PADDING))
+                    / max(1, len(children) - len(icons)))
             for child in children:
                 walk(child, rest)
         elif node.kind == "grid" and children:

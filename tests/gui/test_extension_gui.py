@@ -27,7 +27,8 @@ def packaged(tmp_path_factory):
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stdout + run.stderr
     version = package.addon_version()
-    return {"extension": out / f"raylab-{version}-linux-x64.zip", "legacy": out / f"raylab-{version}-addon-linux-x64.zip"}
+    return {"extension": out / f"raylab-{version}-linux-x64.zip",
+            "legacy": out / f"raylab-{version}-addon-linux-x64.zip"}
 
 
 def test_extension_zip_has_a_valid_manifest_and_a_self_contained_module(packaged):
@@ -83,7 +84,8 @@ def session(packaged, tmp_path_factory):
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
     os.makedirs(OUT, exist_ok=True)
     report_path = shots / "report.json"
-    run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", str(blend), "--python-exit-code", "1",
+    run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", str(blend),
+                                "--python-exit-code", "1",
                           "--python", os.path.join(HERE, "extension_session.py"), "--", module, str(report_path),
                           str(shots)], env=env, capture_output=True, text=True, timeout=600)
     assert report_path.exists(), run.stdout[-3000:] + run.stderr[-3000:]

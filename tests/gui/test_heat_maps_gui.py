@@ -104,7 +104,6 @@ def test_each_map_shows_its_structure_s_work(shots):
     assert not np.allclose(crops["octree"][:h, :w], crops["none"][:h, :w], atol=0.1)
 
 
-
 def test_the_heat_maps_editor_closes_with_its_level(shots):
     """Item 4 of issue 27: the Image Editor the heat maps split off the 3D viewport stayed over half of
     the next levels' viewport, showing maps without their numbers."""

@@ -89,6 +89,7 @@ def test_count_leaking_rays_draws_the_escaped_rays_in_red(shots):
     region, (before, after) = images(shots, LEAK_LEVEL, "_boxes_off", "_leaks")
     inside = viewport_mask(entry, region, after.shape[:2])
     drawn = changed(before, after, threshold=0.15) & inside
+
     def reddish(image):
         return (image[..., 0] > 0.6) & (image[..., 1] < 0.4) & (image[..., 2] < 0.4) & inside
 

@@ -2,7 +2,6 @@
 the statistics line. Runs with /usr/bin/python3 -m pytest tests/gui; writes out/gui/render_f12.png."""
 import json
 import os
-import subprocess
 
 import numpy as np
 import pytest
@@ -26,7 +25,8 @@ def f12_render():
             os.remove(path)
     gui_util.demo_blend(blend)
     run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup",
-                          blend, "--python-exit-code", "1", "--python", os.path.join(HERE, "render_f12.py"), "--", screenshot, report_path],
+                          blend, "--python-exit-code", "1", "--python", os.path.join(HERE, "render_f12.py"), "--",
+                          screenshot, report_path],
                          capture_output=True, text=True, timeout=300)
     assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:]
     with open(report_path) as file:
@@ -56,4 +56,3 @@ def test_render_window_shows_the_raylab_statistics(f12_render):
     columns = np.flatnonzero(text.any(axis=0))
     assert text.sum() > 100 and text.mean() < 0.5, f"text pixels in the statistics band: {int(text.sum())}"
     assert columns.max() > 600, f"the statistics text ends at x = {columns.max()}"
-

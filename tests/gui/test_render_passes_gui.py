@@ -4,7 +4,6 @@ render's totals and the heat pass in raylab.heat_map's colours with its legend. 
 /usr/bin/python3 -m pytest tests/gui; writes out/gui/render_passes.png and .exr."""
 import json
 import os
-import subprocess
 import sys
 
 import numpy as np
@@ -48,7 +47,6 @@ def f12_passes():
             for index, id_ in enumerate(ids):
                 channels.setdefault(f"{layer}.{name}.{id_}", pixels[:, :, index])
     return report, channels
-
 
 
 def test_the_job_thread_render_leaves_every_cost_pass_adding_up_to_its_totals(f12_passes):

@@ -17,7 +17,6 @@ render's depsgraph, Blender's own race (render_repeat.py, ARCHITECTURE.md); the 
 render now happen inside raylab's render(), each render at least once."""
 import json
 import os
-import subprocess
 
 import gui_util
 

@@ -82,7 +82,6 @@ def test_the_race_s_animation_tasks_refit_then_rebuild_while_playing(runs):
     assert rebuild["builds"] > 0 and rebuild["refits"] == 0  # and built anew each frame on Rebuild
 
 
-
 def test_what_the_tasks_ask_the_student_to_read_is_there(runs):
     """AABB 2 asks to read Rays ignored after F12; Octree 2 how many triangles the ray on the bunny
     tested: a few of the bunny's, not all."""
