@@ -16,7 +16,8 @@ render, never while Blender builds, evaluates or frees the render's depsgraph on
 edit then is Blender's own race, in its code around any engine's render() (every edit tags every
 depsgraph of the file, the render's too, and nothing locks them; seen with raylab's engine only). CI met
 it once on 4.3: Blender aborted on "Attempt to free nullptr pointer"; the core showed the job thread in
-RE_engine_render freeing its depsgraph, on a node tree copy whose node runtime had a null vector (ARCHITECTURE.md, "Blender's threads").
+RE_engine_render freeing its depsgraph, on a node tree copy whose node runtime had a null vector
+(ARCHITECTURE.md, "Blender's threads").
 """
 import faulthandler
 import json
