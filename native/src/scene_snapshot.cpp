@@ -173,22 +173,23 @@ bool closest_in(const Structure& s, const Ray& r, Hit& h, TraversalStats* st) {
   return st ? s.closest(r, h, *st) : s.closest(r, h);
 }
 
-// The top level's part of a scene story; the instances' parts come from their own stories.
+// The top level's part of a scene story; the instances' parts come from their own stories. It counts
+// through StatsRecord, so that a new counter is counted here as everywhere else.
 struct SceneStoryRecord {
   static constexpr bool kActive = true;
   SceneStory& story;
   TraversalStats& stats;
-  void ray() { ++stats.rays; }
+  void ray() { StatsRecord{stats}.ray(); }
   void ignored() {
-    ++stats.rays_ignored;
+    StatsRecord{stats}.ignored();
     story.ignored = true;
   }
   void box(uint32_t node, const Bounds& b, int depth, bool hit, float t_entry) {
-    ++stats.box_tests;
+    StatsRecord{stats}.box(node, b, depth, hit, t_entry);
     story.top_boxes.push_back({node, b, depth, hit, t_entry});
   }
   void node(uint32_t node, int depth) {
-    ++stats.nodes_visited;
+    StatsRecord{stats}.node(node, depth);
     story.top_nodes.push_back({node, depth});
   }
 };

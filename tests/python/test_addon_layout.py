@@ -72,27 +72,30 @@ def test_an_import_inside_a_function_closes_a_circle():
         "raylab.blender.a", "raylab.blender.b", "raylab.blender.a"]
 
 
-def props(structure, max_depth_auto=False, max_depth=5, leaf_size=3):
-    return types.SimpleNamespace(structure=structure, max_depth_auto=max_depth_auto, max_depth=max_depth,
-                                 leaf_size=leaf_size)
+VALUES = {setting: 5 + i for i, setting in enumerate(build_settings.SETTINGS)}  # one value per setting
+
+
+def props(structure, max_depth_auto=False, **changed):
+    """A property group as build_settings reads it: every setting of SETTINGS, each with its own value."""
+    return types.SimpleNamespace(structure=structure, max_depth_auto=max_depth_auto, **{**VALUES, **changed})
 
 
 @pytest.mark.parametrize("structure", raylab.STRUCTURES)
 def test_the_cache_key_holds_only_the_settings_a_kind_uses(structure):
     info = raylab.STRUCTURE_INFO[structure]
     key = build_settings.cache_key(props(structure))
-    assert key == (structure, 5 if info["uses_max_depth"] else None, 3 if info["uses_leaf_size"] else None)
-    # A setting the kind does not use changes no key: no rebuild.
-    assert (build_settings.cache_key(props(structure, max_depth=9)) == key) != info["uses_max_depth"]
-    assert (build_settings.cache_key(props(structure, leaf_size=7)) == key) != info["uses_leaf_size"]
+    assert key == (structure, *(VALUES[s] if info[f"uses_{s}"] else None for s in build_settings.SETTINGS))
+    for setting in build_settings.SETTINGS:  # a setting the kind does not use changes no key: no rebuild
+        other = build_settings.cache_key(props(structure, **{setting: VALUES[setting] + 1}))
+        assert (other == key) != info[f"uses_{setting}"], setting
 
 
 def test_auto_depth_is_the_cores_auto_and_every_build_takes_the_same_arguments():
     assert build_settings.max_depth(props("octree", max_depth_auto=True)) == "auto"
     kwargs = build_settings.build_kwargs(props("octree"), "bvh")
-    assert kwargs == dict(structure="bvh", max_depth=5, leaf_size=3)
+    assert kwargs == dict(structure="bvh", **VALUES)
     vertices, triangles = raylab.load_mesh(PACKAGE / "meshes" / "sphere.obj")
     octree = raylab.build(vertices, triangles, **build_settings.build_kwargs(props("octree")))
-    assert octree.max_depth == 5
+    assert octree.max_depth == VALUES["max_depth"]
     scene = raylab.Scene(**build_settings.build_kwargs(props("octree", max_depth_auto=True)))
     assert scene is not None

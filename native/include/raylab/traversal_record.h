@@ -124,24 +124,25 @@ struct RayStory {
   void finish() { status = ray_status(hit.valid(), ignored, !triangles.empty()); }
 };
 
+// Counts through StatsRecord (a new counter is counted in one place) and keeps every event in order.
 struct StoryRecord {
   static constexpr bool kActive = true;
   RayStory& story;
-  void ray() { ++story.stats.rays; }
+  void ray() { StatsRecord{story.stats}.ray(); }
   void ignored() {
-    ++story.stats.rays_ignored;
+    StatsRecord{story.stats}.ignored();
     story.ignored = true;
   }
   void box(uint32_t node, const Bounds& b, int depth, bool hit, float t_entry) {
-    ++story.stats.box_tests;
+    StatsRecord{story.stats}.box(node, b, depth, hit, t_entry);
     story.boxes.push_back({node, b, depth, hit, t_entry});
   }
   void node(uint32_t node, int depth) {
-    ++story.stats.nodes_visited;
+    StatsRecord{story.stats}.node(node, depth);
     story.nodes.push_back({node, depth});
   }
   void triangle(uint32_t index, bool hit) {
-    ++story.stats.triangle_tests;
+    StatsRecord{story.stats}.triangle(index, hit);
     story.triangles.push_back({index, hit});
   }
 };
