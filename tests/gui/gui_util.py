@@ -42,12 +42,17 @@ HEARTBEAT = os.path.join(HERE, "heartbeat.py")
 # How long a GUI Blender may go without a heartbeat (its main loop stopped: hung, or stuck in one long
 # call) before it is stopped. A slow machine slows the beats' work, not the beats.
 STALL_SECONDS = 180
+# The first X display xvfb-run may take. Roots (chroots) have their own /tmp, where xvfb-run looks for free
+# displays, but share the host's abstract X sockets: a root run beside a host run takes its own numbers.
+FIRST_DISPLAY = {"debian13": 200, "sid": 300}.get(os.environ.get("RAYLAB_IN_ROOT", ""), 99)
 
 
 def run_watched(command, timeout=None, env=None, check=False, **_):
     """subprocess.run for a Blender command line (under xvfb-run or not): heartbeat.py runs first in it,
     and the process is stopped only when no heartbeat came for STALL_SECONDS, never after a fixed time
     (`timeout`, what callers used to pass, is ignored). Output is captured as text."""
+    if command[0] == "xvfb-run":
+        command = [command[0], "-n", str(FIRST_DISPLAY), *command[1:]]
     index = command.index("blender") + 1
     command = command[:index] + ["--python", HEARTBEAT] + command[index:]
     with tempfile.TemporaryDirectory(prefix="raylab_gui_") as folder:
