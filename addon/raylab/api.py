@@ -21,7 +21,8 @@ from .native import core as _raylab  # beside this file or from the raylab_core 
 from .heat import HEAT_COLOURS, heat_legend, heat_map, heat_scale_text, heat_ticks  # noqa: F401 (numpy only)
 
 __all__ = [
-    "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "COUNTERS", "COUNTER_INFO",
+    "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "CONTRACTS", "CONTRACT_INFO",
+    "COUNTERS", "COUNTER_INFO",
     "COST_PASSES", "COST_PASS_INFO", "COST_RAYS", "COST_RAYS_INFO",
     "DEFAULTS", "SAH_CONSTANTS", "TOP_LEVEL_REFIT_LIMIT", "RAY_STATUSES", "BuildError", "load_mesh", "build",
     "build_file",
@@ -35,6 +36,8 @@ STRUCTURE_INFO = {s["name"]: s for s in _raylab.STRUCTURES}  # name -> label, de
 STRUCTURES = tuple(STRUCTURE_INFO)                             # ("none", "aabb", "octree", "bvh", ...)
 TRIANGLE_TEST_INFO = {t["name"]: t for t in _raylab.TRIANGLE_TESTS}
 TRIANGLE_TESTS = tuple(TRIANGLE_TEST_INFO)                     # ("watertight", "moller_trumbore")
+CONTRACT_INFO = {c["name"]: c for c in _raylab.CONTRACTS}      # README "The price of exactness"
+CONTRACTS = tuple(CONTRACT_INFO)                               # ("exact", "fast")
 COUNTER_INFO = {c["name"]: c for c in _raylab.COUNTERS}      # the keys of every stats dict, in order
 COUNTERS = tuple(COUNTER_INFO)
 # The cost passes (native/include/raylab/cost_passes.h): render-pass name -> counter, label, description;
@@ -157,6 +160,7 @@ class Structure:
     max_depth = property(lambda self: self.native.max_depth)
     leaf_size = property(lambda self: self.native.leaf_size)
     triangle_test = property(lambda self: self.native.triangle_test)
+    contract = property(lambda self: self.native.contract)
     refitted = property(lambda self: self.native.refitted,
                         doc="made by refit() keeping its source's topology (False for a build, and for a refit "
                             "of a kind whose refit rebuilds: STRUCTURE_INFO[name]['refits'] is False)")
@@ -231,22 +235,24 @@ class Structure:
 
 
 def build(vertices, triangles, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-          triangle_test=_D["triangle_test"], memory_budget=None):
+          triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
     """Builds a structure over (V,3) float32 vertices and (T,3) uint32 triangles.
 
     Other real dtypes are converted (vertices to float32); negative or out-of-range indices, NaN or
     infinite coordinates, wrong shapes and impossible settings raise ValueError. max_depth is the
-    octree's depth (0 = root only); leaf_size the triangles per octree or BVH leaf; memory_budget
-    the bytes a build may use (None = 4 GiB), beyond which it raises BuildError.
+    octree's depth (0 = root only); leaf_size the triangles per octree or BVH leaf; contract "exact"
+    (brute force's hit, bit for bit) or "fast" (Embree's tests, where STRUCTURE_INFO[structure]
+    ["uses_contract"]; CONTRACT_INFO says what each promises); memory_budget the bytes a build may use
+    (None = 4 GiB), beyond which it raises BuildError.
     """
-    return Structure(_raylab.build(vertices, triangles, structure, max_depth, leaf_size, triangle_test,
+    return Structure(_raylab.build(vertices, triangles, structure, max_depth, leaf_size, triangle_test, contract,
                                    memory_budget))
 
 
 def build_file(path, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-               triangle_test=_D["triangle_test"], memory_budget=None):
+               triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
     """build() over the mesh read from an OBJ file."""
-    return Structure(_raylab.build_file(path, structure, max_depth, leaf_size, triangle_test,
+    return Structure(_raylab.build_file(path, structure, max_depth, leaf_size, triangle_test, contract,
                                         memory_budget))
 
 
@@ -263,8 +269,8 @@ class Scene:
     __slots__ = ("native",)
 
     def __init__(self, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-                 triangle_test=_D["triangle_test"], memory_budget=None):
-        self.native = _raylab.Scene(structure, max_depth, leaf_size, triangle_test, memory_budget)
+                 triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
+        self.native = _raylab.Scene(structure, max_depth, leaf_size, triangle_test, contract, memory_budget)
 
     def add_mesh(self, vertices, triangles, normals=None):
         """Adds a mesh ((V,3) vertices, (T,3) triangles, validated as in build()); returns its id.
@@ -295,9 +301,9 @@ class Scene:
         self.native.set_transform(instance, matrix)
 
     def set_settings(self, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-                     triangle_test=_D["triangle_test"], memory_budget=None):
+                     triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
         """New build settings: every mesh structure is rebuilt at the next commit()."""
-        self.native.set_settings(structure, max_depth, leaf_size, triangle_test, memory_budget)
+        self.native.set_settings(structure, max_depth, leaf_size, triangle_test, contract, memory_budget)
 
     def commit(self):
         """Builds what changed since the last commit; queries need it."""

@@ -151,6 +151,7 @@ void bind_core(py::module_& m) {
       .def_property_readonly("leaf_size", [](const Structure& s) { return s.settings().leaf_size; })
       .def_property_readonly("triangle_test",
                              [](const Structure& s) { return triangle_test_name(s.settings().triangle_test); })
+      .def_property_readonly("contract", [](const Structure& s) { return contract_name(s.settings().contract); })
       .def_property_readonly(
           "mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
           "A copy of the mesh: (vertices, triangles).")
@@ -186,9 +187,9 @@ void bind_core(py::module_& m) {
         m.def(
             "build",
             [](py::handle vertices, py::handle triangles, py::handle structure, py::handle max_depth,
-               py::handle leaf_size, py::handle triangle_test, py::handle memory_budget) {
+               py::handle leaf_size, py::handle triangle_test, py::handle contract, py::handle memory_budget) {
               const BuildSettings settings =
-                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
+                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, contract, memory_budget);
               return build(mesh_from_arrays(vertices, triangles), settings);
             },
             keywords...);
@@ -200,10 +201,10 @@ void bind_core(py::module_& m) {
         m.def(
             "build_file",
             [](py::handle path, py::handle structure, py::handle max_depth, py::handle leaf_size,
-               py::handle triangle_test, py::handle memory_budget) {
+               py::handle triangle_test, py::handle contract, py::handle memory_budget) {
               const std::string file = path_parameter(path, "path");
               const BuildSettings settings =
-                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, memory_budget);
+                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, contract, memory_budget);
               return build(std::make_shared<const TriangleMesh>(read_mesh_file(file)), settings);
             },
             keywords...);

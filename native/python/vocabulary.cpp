@@ -51,6 +51,7 @@ void bind_vocabulary(py::module_& m) {
   m.attr("STRUCTURES") = table(structure_kinds(), field("name", &S::name), field("label", &S::label),
                                field("description", &S::description), field("root_name", &S::root_name),
                                field("uses_max_depth", &S::uses_max_depth), field("uses_leaf_size", &S::uses_leaf_size),
+                               field("uses_contract", &S::uses_contract),
                                field("uses_top_level", &S::uses_top_level), field("has_boxes", &S::has_boxes));
   // Whether refit keeps the topology (else it rebuilds): StructureInfo::refit is a function, not a field.
   for (size_t i = 0; i < structure_kinds().size(); ++i)
@@ -58,6 +59,9 @@ void bind_vocabulary(py::module_& m) {
   using T = TriangleTestInfo;
   m.attr("TRIANGLE_TESTS") = table(std::span<const T>(kTriangleTests), field("name", &T::name),
                                    field("label", &T::label), field("description", &T::description));
+  using K = ContractInfo;
+  m.attr("CONTRACTS") = table(std::span<const K>(kContracts), field("name", &K::name), field("label", &K::label),
+                              field("description", &K::description));
   using C = CounterInfo;
   m.attr("COUNTERS") = table(std::span<const C>(kCounters), field("name", &C::name), field("label", &C::label),
                              field("description", &C::description), field("object_work", &C::object_work));
@@ -78,6 +82,7 @@ void bind_vocabulary(py::module_& m) {
   d["max_depth"] = max_depth_object(defaults.max_depth);
   d["leaf_size"] = defaults.leaf_size;
   d["triangle_test"] = triangle_test_name(defaults.triangle_test);
+  d["contract"] = contract_name(defaults.contract);
   d["memory_budget"] = defaults.memory_budget;
   d["max_depth_limit"] = BuildSettings::kMaxDepthLimit;
   m.attr("BUILD_DEFAULTS") = d;

@@ -115,35 +115,38 @@ class Collapser {
 };
 
 // Copies each leaf's triangles into its packets; unused lanes repeat the packet's first triangle.
-void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf, TrianglePacket* packets) {
+void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf, Contract contract,
+                  TrianglePacket* packets) {
   for (uint32_t p = 0; p < leaf.count; p += 4) {
     TrianglePacket& packet = packets[leaf.first_packet + p / 4];
     for (uint32_t lane = 0; lane < 4; ++lane) {
       const bool real = p + lane < leaf.count;
       const uint32_t triangle = binary.prims[leaf.first_prim + (real ? p + lane : p)];
       packet.triangle[lane] = real ? triangle : kInvalidIndex;
-      for (int c = 0; c < 3; ++c) {
-        const glm::vec3 v = mesh.vertex(triangle, c);
-        for (int a = 0; a < 3; ++a) packet.p[c][a][lane] = v[a];
-      }
+      write_packet_lane(packet, int(lane), contract, mesh.vertex(triangle, 0), mesh.vertex(triangle, 1),
+                        mesh.vertex(triangle, 2));
     }
   }
 }
 
-int chosen_width(int width) {
-  if (width == 8 && !cpu_has_avx2()) throw std::invalid_argument("bvh: an 8-wide BVH needs a CPU with AVX2");
+// The fast contract's 8-wide kernels need FMA as well (every AVX2 CPU but a few has it).
+int chosen_width(int width, Contract contract) {
+  const bool has8 = contract == Contract::Fast ? cpu_has_avx2_fma() : cpu_has_avx2();
+  if (width == 8 && !has8)
+    throw std::invalid_argument(contract == Contract::Fast ? "bvh: an 8-wide BVH of the fast contract needs AVX2 and FMA"
+                                                           : "bvh: an 8-wide BVH needs a CPU with AVX2");
   if (width != 0 && width != 4 && width != 8) throw std::invalid_argument("bvh: width must be 0, 4 or 8");
   if (width != 0) return width;
   const char* forced = std::getenv("RAYLAB_BVH_WIDTH");
   if (forced && std::string(forced) == "4") return 4;
-  return cpu_has_avx2() ? 8 : 4;
+  return has8 ? 8 : 4;
 }
 
 // Collapses `binary` into `nodes` and writes the leaves' packets; returns each leaf's first packet.
 // The collapse itself runs in one thread (a few percent of a build; parallel parts were no faster:
 // docs/bench/history.md).
 template <int W>
-std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary,
+std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary, Contract contract,
                                     std::vector<BvhWideNode<W>>& nodes, HugeArray<TrianglePacket>& packets,
                                     size_t& packet_count) {
   nodes.reserve(binary.nodes.size() / (W - 1) + 1);
@@ -154,7 +157,7 @@ std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& b
   packet_count = collapser.packet_count();
   packets = make_huge_array<TrianglePacket>(packet_count);  // every packet is written below
   tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) fill_packets(mesh, binary, leaves[i], packets.get());
+    for (size_t i = r.begin(); i != r.end(); ++i) fill_packets(mesh, binary, leaves[i], contract, packets.get());
   });
   std::vector<uint32_t> first_packets(leaves.size());
   for (size_t i = 0; i < leaves.size(); ++i) first_packets[i] = leaves[i].first_packet;
@@ -191,12 +194,12 @@ std::vector<BoxInfo> wide_boxes(const Bounds& root, const std::vector<BvhWideNod
 }  // namespace
 
 Bvh::Bvh(MeshPtr mesh, const BuildSettings& settings, int width)
-    : StructureBase(std::move(mesh), settings), width_(chosen_width(width)) {
+    : StructureBase(std::move(mesh), settings), width_(chosen_width(width, settings.contract)) {
   const BinaryBvh binary = build_over_triangles(*mesh_, settings_);
   if (binary.nodes.empty()) return;
   root_bounds_ = binary.nodes[0].bounds();
-  leaf_packets_ = width_ == 8 ? collapse_into(*mesh_, binary, nodes8_, packets_, packet_count_)
-                              : collapse_into(*mesh_, binary, nodes4_, packets_, packet_count_);
+  leaf_packets_ = width_ == 8 ? collapse_into(*mesh_, binary, settings_.contract, nodes8_, packets_, packet_count_)
+                              : collapse_into(*mesh_, binary, settings_.contract, nodes4_, packets_, packet_count_);
 }
 
 std::vector<BoxInfo> Bvh::boxes() const {

@@ -2,11 +2,13 @@
 // AVX2 where the CPU has it, else 4-wide nodes tested with SSE (one binary, x86-64-v2 as the floor;
 // bvh_simd.h). Leaves hold triangles in packets of four for the SIMD watertight test, run on one
 // packet at a time with SSE and on two with AVX2. Traversal is ordered: the nearest child first, and a
-// node is skipped once the closest hit lies before it.
+// node is skipped once the closest hit lies before it. The contract (contract.h) chooses the kernels
+// of the one walk: the exact ones, or the fast ones (fast_contract.h) on packets of edges.
 #pragma once
 
 #include "box_intersection.h"
 #include "bvh_simd.h"
+#include "fast_contract.h"
 #include "raylab/bvh_build.h"
 #include "raylab/structure.h"
 #include "raylab/triangle_packets.h"
@@ -66,14 +68,27 @@ class Bvh final : public StructureBase<Bvh> {
     int depth;
   };
 
-  // The two widths, as the traversal sees them: `test` tests a node's children; `triangles` the next
-  // kLeafLanes triangles of a leaf (`lanes` of them real) from the packets at `p`: one packet with SSE,
-  // two with AVX2. A leaf of four triangles or fewer also takes the 8-lane test (its packet in both
-  // halves), faster there than the 4-lane test.
+  // The kernels of one width and contract, as the traversal sees them: `test` tests a node's children;
+  // `triangles` the next kLeafLanes triangles of a leaf (`lanes` of them real) from the packets at `p`:
+  // one packet with SSE, two with AVX2. A leaf of four triangles or fewer also takes the 8-lane test
+  // (its packet in both halves), faster there than the 4-lane test. TriangleRayW holds a ray's
+  // constants of the triangle test; the exact ones keep the scalar tester (`tester`) for
+  // triangle_test moller_trumbore, which the packets do not run.
+  struct ExactTriangles {
+    TriangleTester tester;
+    explicit ExactTriangles(const Ray& ray, TriangleTest kind, const glm::vec3& d) : tester(ray, kind, d) {}
+  };
+  template <class W>
+  struct ExactTrianglesW : ExactTriangles {
+    W w;  // refers to tester.watertight: not copyable
+    ExactTrianglesW(const Ray& ray, TriangleTest kind, const glm::vec3& d)
+        : ExactTriangles(ray, kind, d), w(tester.watertight) {}
+    ExactTrianglesW(const ExactTrianglesW&) = delete;
+  };
   struct Sse4 {
     using Node = Bvh4Node;
     using BoxRayW = Box4Ray;
-    using TriangleRayW = Watertight4Ray;
+    using TriangleRayW = ExactTrianglesW<Watertight4Ray>;
     static constexpr int kLeafLanes = 4;
     static int test(const Node& node, const BoxRayW& r, float tmax, float t[4]) {
       __m128 entry;
@@ -85,13 +100,13 @@ class Bvh final : public StructureBase<Bvh> {
     static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes, float tmin, float tmax, float* t,
                          float* u, float* v) {
       // The unused lanes repeat lane 0's triangle, so an any-hit mask's first lane is a real one.
-      return intersect_watertight4<kAny>(r, p[0], tmin, tmax, t, u, v) & ((1 << lanes) - 1);
+      return intersect_watertight4<kAny>(r.w, p[0], tmin, tmax, t, u, v) & ((1 << lanes) - 1);
     }
   };
   struct Avx8 {
     using Node = Bvh8Node;
     using BoxRayW = Box8Ray;
-    using TriangleRayW = Watertight8Ray;
+    using TriangleRayW = ExactTrianglesW<Watertight8Ray>;
     static constexpr int kLeafLanes = 8;
     __attribute__((target("avx2"))) static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
       return intersect_box8(node, r, tmax, t);
@@ -99,12 +114,53 @@ class Bvh final : public StructureBase<Bvh> {
     template <bool kAny>
     __attribute__((target("avx2"))) static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes,
                                                          float tmin, float tmax, float* t, float* u, float* v) {
-      return intersect_watertight8<kAny>(r, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
+      return intersect_watertight8<kAny>(r.w, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
+    }
+  };
+  template <class R>
+  struct FastTriangles {
+    R r;
+    FastTriangles(const Ray& ray, TriangleTest, const glm::vec3& d) : r(ray.origin, d) {}
+  };
+  struct FastSse4 {
+    using Node = Bvh4Node;
+    using BoxRayW = FastBox4Ray;
+    using TriangleRayW = FastTriangles<FastTriangle4Ray>;
+    static constexpr int kLeafLanes = 4;
+    static int test(const Node& node, const BoxRayW& r, float tmax, float t[4]) {
+      __m128 entry;
+      const int mask = fast_box4(node, r, tmax, entry);
+      _mm_storeu_ps(t, entry);
+      return mask;
+    }
+    template <bool kAny>
+    static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes, float tmin, float tmax, float* t,
+                         float* u, float* v) {
+      return intersect_fast4<kAny>(r.r, p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
+    }
+  };
+  struct FastAvx8 {
+    using Node = Bvh8Node;
+    using BoxRayW = FastBox8Ray;
+    using TriangleRayW = FastTriangles<FastTriangle8Ray>;
+    static constexpr int kLeafLanes = 8;
+    __attribute__((target("avx2,fma"))) static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
+      return fast_box8(node, r, tmax, t);
+    }
+    template <bool kAny>
+    __attribute__((target("avx2,fma"))) static int triangles(const TriangleRayW& r, const TrianglePacket* p,
+                                                             int lanes, float tmin, float tmax, float* t, float* u,
+                                                             float* v) {
+      return intersect_fast8<kAny>(r.r, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
     }
   };
 
   template <bool kClosest, class Recorder>
   bool traverse(const Ray& ray, Hit* hit, Recorder& record) const {
+    if (settings_.contract == Contract::Fast) {
+      if (width_ == 8) return traverse8_fast<kClosest>(ray, hit, record);
+      return traverse_wide<FastSse4, kClosest>(ray, hit, record);
+    }
     if (width_ == 8) return traverse8<kClosest>(ray, hit, record);
     return traverse_wide<Sse4, kClosest>(ray, hit, record);
   }
@@ -115,10 +171,16 @@ class Bvh final : public StructureBase<Bvh> {
   __attribute__((target("avx2"))) bool traverse8(const Ray& ray, Hit* hit, Recorder& record) const {
     return traverse_wide<Avx8, kClosest>(ray, hit, record);
   }
+  // The fast contract's, with FMA (which the exact instance must not have: its lanes round as the
+  // scalar tests do).
+  template <bool kClosest, class Recorder>
+  __attribute__((target("avx2,fma"))) bool traverse8_fast(const Ray& ray, Hit* hit, Recorder& record) const {
+    return traverse_wide<FastAvx8, kClosest>(ray, hit, record);
+  }
 
   template <class Width>
   const std::vector<typename Width::Node>& wide_nodes() const {
-    if constexpr (std::is_same_v<Width, Avx8>) return nodes8_;
+    if constexpr (Width::kLeafLanes == 8) return nodes8_;
     else return nodes4_;
   }
 
@@ -146,8 +208,7 @@ class Bvh final : public StructureBase<Bvh> {
       if (!visit_children<Width, kClosest>(e, boxw, ray.tmax, record, stack, size)) return false;
       descending = true;
     }
-    const TriangleTester tester(ray, settings_.triangle_test, direction);
-    const typename Width::TriangleRayW triw(tester.watertight);
+    const typename Width::TriangleRayW triw(ray, settings_.triangle_test, direction);
     Hit best = initial_hit(ray);
     bool found = false;
     for (;;) {
@@ -163,8 +224,8 @@ class Bvh final : public StructureBase<Bvh> {
       if (e.count == 0) {
         descending = visit_children<Width, kClosest>(e, boxw, kClosest ? best.t : ray.tmax, record, stack, size);
       } else if constexpr (kClosest) {
-        found |= closest_in_leaf<Width>(tester, triw, e, best, record);
-      } else if (any_in_leaf<Width>(tester, triw, e, record)) {
+        found |= closest_in_leaf<Width>(triw, ray, e, best, record);
+      } else if (any_in_leaf<Width>(triw, ray, e, record)) {
         return true;
       }
     }
@@ -271,33 +332,35 @@ class Bvh final : public StructureBase<Bvh> {
 
   // The leaf's triangles kLeafLanes at a time, recorded in leaf order as the scalar loop would.
   template <class Width, class Recorder>
-  [[gnu::always_inline]] bool closest_in_leaf(const TriangleTester& tester, const typename Width::TriangleRayW& triw,
+  [[gnu::always_inline]] bool closest_in_leaf(const typename Width::TriangleRayW& triw, const Ray& ray,
                                               const Entry& leaf, Hit& best, Recorder& record) const {
-    if (tester.test != TriangleTest::Watertight)
-      return closest_in_triangles(
-          *mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, best, record);
+    if constexpr (std::is_base_of_v<ExactTriangles, typename Width::TriangleRayW>)
+      if (triw.tester.test != TriangleTest::Watertight)
+        return closest_in_triangles(
+            *mesh_, triw.tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, best, record);
     bool found = false;
     for (uint32_t first = 0; first < leaf.count; first += Width::kLeafLanes) {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));
       alignas(32) float t[8], u[8], v[8];
-      const int mask = Width::template triangles<false>(triw, p, lanes, tester.ray.tmin, best.t, t, u, v);
+      const int mask = Width::template triangles<false>(triw, p, lanes, ray.tmin, best.t, t, u, v);
       found |= take_closest_lanes(p, lanes, mask, t, u, v, record, best);
     }
     return found;
   }
 
   template <class Width, class Recorder>
-  [[gnu::always_inline]] bool any_in_leaf(const TriangleTester& tester, const typename Width::TriangleRayW& triw,
-                                          const Entry& leaf, Recorder& record) const {
-    if (tester.test != TriangleTest::Watertight)
-      return any_in_triangles(
-          *mesh_, tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, tester.ray.tmax, record);
+  [[gnu::always_inline]] bool any_in_leaf(const typename Width::TriangleRayW& triw, const Ray& ray, const Entry& leaf,
+                                          Recorder& record) const {
+    if constexpr (std::is_base_of_v<ExactTriangles, typename Width::TriangleRayW>)
+      if (triw.tester.test != TriangleTest::Watertight)
+        return any_in_triangles(
+            *mesh_, triw.tester, leaf.count, [&](uint32_t i) { return triangle_at(leaf, i); }, ray.tmax, record);
     for (uint32_t first = 0; first < leaf.count; first += Width::kLeafLanes) {
       const TrianglePacket* p = &packets_[leaf.ref + first / 4];
       const int lanes = int(std::min(uint32_t(Width::kLeafLanes), leaf.count - first));
       alignas(32) float t[8], u[8], v[8];
-      const int mask = Width::template triangles<true>(triw, p, lanes, tester.ray.tmin, tester.ray.tmax, t, u, v);
+      const int mask = Width::template triangles<true>(triw, p, lanes, ray.tmin, ray.tmax, t, u, v);
       if (record_any_lanes(p, lanes, mask, record)) return true;
     }
     return false;

@@ -27,8 +27,8 @@ void set_slot(BvhWideNode<W>& node, int i, const Bounds& b) {
 // layout as `source`, unused lanes repeating the packet's first triangle as the build does) and
 // returns the union of its triangles' bounds, as the build computes a leaf's box.
 template <int W>
-Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, const TrianglePacket* source,
-                  TrianglePacket* packets) {
+Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, Contract contract,
+                  const TrianglePacket* source, TrianglePacket* packets) {
   Bounds box;
   const uint32_t first = node.child[i], count = node.count[i];
   for (uint32_t p = 0; p < (count + kPacketLanes - 1) / kPacketLanes; ++p) {
@@ -38,11 +38,10 @@ Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, c
       const uint32_t id = from.triangle[lane];
       to.triangle[lane] = id;
       const uint32_t triangle = id != kInvalidIndex ? id : from.triangle[0];
-      for (int c = 0; c < 3; ++c) {
-        const glm::vec3 v = mesh.vertex(triangle, c);
-        for (int a = 0; a < 3; ++a) to.p[c][a][lane] = v[a];
-        if (id != kInvalidIndex) box.extend(v);
-      }
+      write_packet_lane(to, int(lane), contract, mesh.vertex(triangle, 0), mesh.vertex(triangle, 1),
+                        mesh.vertex(triangle, 2));
+      if (id != kInvalidIndex)
+        for (int c = 0; c < 3; ++c) box.extend(mesh.vertex(triangle, c));
     }
   }
   return box;
@@ -65,13 +64,13 @@ Bounds refit_inner(std::vector<BvhWideNode<W>>& nodes, uint32_t n) {
 // Leaves first (in parallel: each slot and packet belongs to one node), then the inner slots
 // bottom-up. Returns the root box.
 template <int W>
-Bounds refit_wide(const TriangleMesh& mesh, std::vector<BvhWideNode<W>>& nodes, const TrianglePacket* source,
-                  TrianglePacket* packets) {
+Bounds refit_wide(const TriangleMesh& mesh, std::vector<BvhWideNode<W>>& nodes, Contract contract,
+                  const TrianglePacket* source, TrianglePacket* packets) {
   if (nodes.empty()) return {};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t n = r.begin(); n != r.end(); ++n)
       for (int i = 0; i < W; ++i)
-        if (nodes[n].leaf(i)) set_slot(nodes[n], i, refit_leaf(mesh, nodes[n], i, source, packets));
+        if (nodes[n].leaf(i)) set_slot(nodes[n], i, refit_leaf(mesh, nodes[n], i, contract, source, packets));
   });
   return refit_inner(nodes, 0);
 }
@@ -105,8 +104,8 @@ Bvh::Bvh(const Bvh& source, MeshPtr moved)
       leaf_packets_(source.leaf_packets_) {
   if (mesh_->triangles != source.mesh_->triangles)
     throw std::invalid_argument("bvh refit: the moved mesh must have the source's triangles");
-  root_bounds_ = width_ == 8 ? refit_wide(*mesh_, nodes8_, source.packets_.get(), packets_.get())
-                             : refit_wide(*mesh_, nodes4_, source.packets_.get(), packets_.get());
+  root_bounds_ = width_ == 8 ? refit_wide(*mesh_, nodes8_, settings_.contract, source.packets_.get(), packets_.get())
+                             : refit_wide(*mesh_, nodes4_, settings_.contract, source.packets_.get(), packets_.get());
 }
 
 double Bvh::sah_cost() const {

@@ -18,6 +18,20 @@ void BuildSettings::validate() const {
                                 std::to_string(max_depth));
   if (leaf_size < 1) throw std::invalid_argument("leaf_size must be >= 1, got " + std::to_string(leaf_size));
   if (memory_budget == 0) throw std::invalid_argument("memory_budget must be positive");
+  if (contract == Contract::Fast) {
+    if (!structure_info(kind).uses_contract) {
+      std::string takers;
+      for (const StructureInfo& info : structure_kinds())
+        if (info.uses_contract) takers += (takers.empty() ? "" : ", ") + std::string(info.name);
+      throw std::invalid_argument("contract 'fast' is not available for structure '" +
+                                  std::string(structure_info(kind).name) + "': it has the exact contract only (" +
+                                  takers + " take the fast one)");
+    }
+    if (triangle_test != TriangleTest::Watertight)
+      throw std::invalid_argument("triangle_test '" + std::string(triangle_test_name(triangle_test)) +
+                                  "' is a test of the exact contract; the fast contract has its own "
+                                  "(Möller–Trumbore on precomputed edges)");
+  }
 }
 
 std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& settings) {

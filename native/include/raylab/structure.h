@@ -1,6 +1,7 @@
 // The one interface behind which the acceleration structures live, and the table that names them.
 #pragma once
 
+#include "raylab/contract.h"
 #include "raylab/geometry.h"
 #include "raylab/traversal_record.h"
 #include "raylab/triangle_intersection.h"
@@ -30,11 +31,12 @@ struct BuildSettings {
   StructureKind kind = StructureKind::Bvh;
   int max_depth = kAutoDepth;  // octree: depth 0 is the root alone, or kAutoDepth
   int leaf_size = 8;           // octree: split while a node holds more triangles than this; bvh: max per leaf
-  TriangleTest triangle_test = TriangleTest::Watertight;
+  TriangleTest triangle_test = TriangleTest::Watertight;  // the exact contract's triangle test
+  Contract contract = Contract::Exact;  // fast: only where StructureInfo::uses_contract
   size_t memory_budget = kDefaultMemoryBudget;  // a build that would need more stops with BuildError
 
   // The one place that decides whether settings are acceptable (the depth limit, leaf size, memory
-  // budget): build_structure and the Scene call it where settings enter the core, the bindings only
+  // budget, the contract): build_structure and the Scene call it where settings enter the core, the bindings only
   // convert types. Throws std::invalid_argument naming the bad setting.
   void validate() const;
   // validate()'s refusal of a negative max_depth. The bindings give it for -1 as well: from Python only
@@ -55,6 +57,7 @@ struct StructureInfo {
   const char* root_name;    // what a ray that misses everything missed, e.g. "the BVH root"
   bool uses_max_depth;      // whether BuildSettings::max_depth changes the build
   bool uses_leaf_size;      // whether BuildSettings::leaf_size changes the build
+  bool uses_contract;       // whether it has the fast contract (BuildSettings::contract); else only exact
   bool uses_top_level;      // in a Scene: a BVH over the instances' world boxes decides which to visit
   bool has_boxes;           // whether it has boxes to draw
   std::unique_ptr<Structure> (*build)(MeshPtr mesh, const BuildSettings& settings);
