@@ -44,8 +44,7 @@ inline auto settings_keywords() {
   return std::make_tuple(py::arg("structure") = structure_kind_name(d.kind),
                          py::arg("max_depth") = max_depth_object(d.max_depth), py::arg("leaf_size") = d.leaf_size,
                          py::arg("triangle_test") = triangle_test_name(d.triangle_test),
-                         py::arg("contract") = contract_name(d.contract),
-                         py::arg("memory_budget") = py::none());
+                         py::arg("contract") = contract_name(d.contract), py::arg("memory_budget") = py::none());
 }
 
 // Calls `define(keywords...)` with settings_keywords() appended to `leading` (py::arg objects).

@@ -51,8 +51,8 @@ void bind_vocabulary(py::module_& m) {
   m.attr("STRUCTURES") = table(structure_kinds(), field("name", &S::name), field("label", &S::label),
                                field("description", &S::description), field("root_name", &S::root_name),
                                field("uses_max_depth", &S::uses_max_depth), field("uses_leaf_size", &S::uses_leaf_size),
-                               field("uses_contract", &S::uses_contract),
-                               field("uses_top_level", &S::uses_top_level), field("has_boxes", &S::has_boxes));
+                               field("uses_contract", &S::uses_contract), field("uses_top_level", &S::uses_top_level),
+                               field("has_boxes", &S::has_boxes));
   // Whether refit keeps the topology (else it rebuilds): StructureInfo::refit is a function, not a field.
   for (size_t i = 0; i < structure_kinds().size(); ++i)
     m.attr("STRUCTURES")[py::int_(i)]["refits"] = structure_kinds()[i].refit != nullptr;

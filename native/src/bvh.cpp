@@ -133,8 +133,9 @@ void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf&
 int chosen_width(int width, Contract contract) {
   const bool has8 = contract == Contract::Fast ? cpu_has_avx2_fma() : cpu_has_avx2();
   if (width == 8 && !has8)
-    throw std::invalid_argument(contract == Contract::Fast ? "bvh: an 8-wide BVH of the fast contract needs AVX2 and FMA"
-                                                           : "bvh: an 8-wide BVH needs a CPU with AVX2");
+    throw std::invalid_argument(contract == Contract::Fast
+                                    ? "bvh: an 8-wide BVH of the fast contract needs AVX2 and FMA"
+                                    : "bvh: an 8-wide BVH needs a CPU with AVX2");
   if (width != 0 && width != 4 && width != 8) throw std::invalid_argument("bvh: width must be 0, 4 or 8");
   if (width != 0) return width;
   const char* forced = std::getenv("RAYLAB_BVH_WIDTH");

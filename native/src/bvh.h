@@ -148,9 +148,8 @@ class Bvh final : public StructureBase<Bvh> {
       return fast_box8(node, r, tmax, t);
     }
     template <bool kAny>
-    __attribute__((target("avx2,fma"))) static int triangles(const TriangleRayW& r, const TrianglePacket* p,
-                                                             int lanes, float tmin, float tmax, float* t, float* u,
-                                                             float* v) {
+    __attribute__((target("avx2,fma"))) static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes,
+                                                             float tmin, float tmax, float* t, float* u, float* v) {
       return intersect_fast8<kAny>(r.r, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
     }
   };

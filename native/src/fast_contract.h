@@ -151,8 +151,9 @@ inline int intersect_fast4(const FastTriangle4Ray& r, const TrianglePacket& pack
   const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), abs_den);
   const __m128 th = _mm_mul_ps(t, inv);
   // The division can round t past tmax or to infinity: the range holds for the t reported.
-  const __m128 in_range = _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(th, _mm_set1_ps(tmin)), _mm_cmple_ps(th, _mm_set1_ps(tmax))),
-                                     _mm_cmplt_ps(th, _mm_set1_ps(kInfinity)));
+  const __m128 in_range =
+      _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(th, _mm_set1_ps(tmin)), _mm_cmple_ps(th, _mm_set1_ps(tmax))),
+                 _mm_cmplt_ps(th, _mm_set1_ps(kInfinity)));
   _mm_storeu_ps(t_out, th);
   _mm_storeu_ps(u_out, _mm_mul_ps(u, inv));
   _mm_storeu_ps(v_out, _mm_mul_ps(v, inv));
@@ -187,8 +188,7 @@ __attribute__((target("avx2,fma"))) inline __m256 fast8_dot(const __m256* x, con
 template <bool kAny = false>
 __attribute__((target("avx2,fma"))) inline int intersect_fast8(const FastTriangle8Ray& r, const TrianglePacket& a,
                                                                const TrianglePacket& b, int lanes, float tmin,
-                                                               float tmax, float* t_out, float* u_out,
-                                                               float* v_out) {
+                                                               float tmax, float* t_out, float* u_out, float* v_out) {
   __m256 e1[3], e2[3], tv[3];
   for (int x = 0; x < 3; ++x) {
     e1[x] = fast8_row(a, b, 1, x);
@@ -210,17 +210,17 @@ __attribute__((target("avx2,fma"))) inline int intersect_fast8(const FastTriangl
   __m256 valid = _mm256_and_ps(_mm256_cmp_ps(abs_den, zero, _CMP_GT_OQ),
                                _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, zero, _CMP_GE_OQ)));
   valid = _mm256_and_ps(valid, _mm256_cmp_ps(_mm256_add_ps(u, v), abs_den, _CMP_LE_OQ));
-  valid = _mm256_and_ps(valid,
-                        _mm256_and_ps(_mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmin)), _CMP_GT_OQ),
-                                      _mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmax)), _CMP_LE_OQ)));
+  valid =
+      _mm256_and_ps(valid, _mm256_and_ps(_mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmin)), _CMP_GT_OQ),
+                                         _mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmax)), _CMP_LE_OQ)));
   const int mask = _mm256_movemask_ps(valid) & lanes;
   if (mask == 0) return 0;
   if constexpr (kAny) return mask & -mask;
   const __m256 inv = _mm256_div_ps(_mm256_set1_ps(1.0f), abs_den);
   const __m256 th = _mm256_mul_ps(t, inv);
-  const __m256 in_range = _mm256_and_ps(
-      _mm256_and_ps(_mm256_cmp_ps(th, _mm256_set1_ps(tmin), _CMP_GT_OQ), _mm256_cmp_ps(th, _mm256_set1_ps(tmax), _CMP_LE_OQ)),
-      _mm256_cmp_ps(th, _mm256_set1_ps(kInfinity), _CMP_LT_OQ));
+  const __m256 in_range = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(th, _mm256_set1_ps(tmin), _CMP_GT_OQ),
+                                                      _mm256_cmp_ps(th, _mm256_set1_ps(tmax), _CMP_LE_OQ)),
+                                        _mm256_cmp_ps(th, _mm256_set1_ps(kInfinity), _CMP_LT_OQ));
   _mm256_storeu_ps(t_out, th);
   _mm256_storeu_ps(u_out, _mm256_mul_ps(u, inv));
   _mm256_storeu_ps(v_out, _mm256_mul_ps(v, inv));

@@ -32,8 +32,8 @@ struct BuildSettings {
   int max_depth = kAutoDepth;  // octree: depth 0 is the root alone, or kAutoDepth
   int leaf_size = 8;           // octree: split while a node holds more triangles than this; bvh: max per leaf
   TriangleTest triangle_test = TriangleTest::Watertight;  // the exact contract's triangle test
-  Contract contract = Contract::Exact;  // fast: only where StructureInfo::uses_contract
-  size_t memory_budget = kDefaultMemoryBudget;  // a build that would need more stops with BuildError
+  Contract contract = Contract::Exact;                    // fast: only where StructureInfo::uses_contract
+  size_t memory_budget = kDefaultMemoryBudget;            // a build that would need more stops with BuildError
 
   // The one place that decides whether settings are acceptable (the depth limit, leaf size, memory
   // budget, the contract): build_structure and the Scene call it where settings enter the core, the bindings only
