@@ -3,8 +3,10 @@
 // and Blender's BVHTree run use (mesh, a subset of the rays, Embree's hits on them).
 // Usage: raylab_bench --mesh FILE.obj|icosphere:LEVELS|subdivided:LEVELS:FILE.obj --name NAME --out DIR [options]; see
 // --help.
+#include "arbitration.h"
 #include "embree_tracer.h"
 #include "hit_comparison.h"
+#include "hostile_rays.h"
 #include "npy.h"
 
 #include "raylab/mesh_io.h"
@@ -42,15 +44,24 @@ std::vector<std::string> every_structure() {
   return names;
 }
 
+// Every contract, exact first.
+std::vector<std::string> every_contract() {
+  std::vector<std::string> names;
+  for (const raylab::ContractInfo& info : raylab::kContracts) names.push_back(info.name);
+  return names;
+}
+
 struct Options {
   std::string mesh, name, out_dir = ".";
   int camera_width = 512, camera_height = 384;
   size_t random_rays = 100000;
   size_t export_rays = 20000;  // rays per set written for Blender's BVHTree
+  size_t hostile_rays = 20000;
   int reps = 5, build_reps = 3;
   double rep_seconds = 0.15;  // each timed repetition traces about this long (at most all rays)
   std::vector<int> threads{1, 2};
   std::vector<std::string> structures = every_structure();
+  std::vector<std::string> contracts = every_contract();
   std::vector<std::string> embree_qualities{"medium", "high"};
   int max_depth = raylab::BuildSettings{}.max_depth, leaf_size = raylab::BuildSettings{}.leaf_size;
 };
@@ -96,6 +107,8 @@ void add_options(CLI::App& app, Options& o) {
          "the camera's picture size, WxH")
       ->default_str(std::to_string(o.camera_width) + "x" + std::to_string(o.camera_height));
   app.add_option("--random-rays", o.random_rays, "random rays in the mesh's box");
+  app.add_option("--hostile-rays", o.hostile_rays,
+                 "rays at vertices and edges, grazing, from a hair above a surface, tmax a hair past or short");
   app.add_option("--export-rays", o.export_rays, "rays per set written for Blender's BVHTree");
   app.add_option("--reps", o.reps, "timed repetitions of each query")->check(positive);
   app.add_option("--build-reps", o.build_reps, "timed builds of each structure")->check(positive);
@@ -115,6 +128,20 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--structures", o.structures, "raylab's structures, comma-separated")
       ->delimiter(',')
       ->check(structure_name);
+  app.add_option("--contracts", o.contracts,
+                 "the contracts of the structures that take one (exact, fast), comma-separated; a fast one is "
+                 "named <structure>_fast")
+      ->delimiter(',')
+      ->check(CLI::Validator(
+          [](std::string& name) {
+            try {
+              contract_from_name(name);
+              return std::string();
+            } catch (const std::exception& e) {
+              return std::string(e.what());
+            }
+          },
+          "CONTRACT"));
   app.add_option("--embree", o.embree_qualities, "Embree's build qualities, comma-separated")
       ->delimiter(',')
       ->check(CLI::IsMember(kEmbreeQualities));
@@ -353,6 +380,78 @@ void trace_runs(std::vector<Contender>& contenders, const std::vector<RaySet>& s
   }
 }
 
+constexpr uint64_t kWrongExamples = 3;  // wrong answers kept per verdict, tracer and ray set
+
+Json verdicts_json(const std::array<uint64_t, kVerdicts>& counts) {
+  Json j = Json::object();
+  uint64_t rays = 0, wrong = 0;
+  for (int v = 0; v < kVerdicts; ++v) {
+    j[verdict_name(Verdict(v))] = counts[v];
+    rays += counts[v];
+    if (Verdict(v) != Verdict::Right) wrong += counts[v];
+  }
+  j["rays"] = rays;
+  j["wrong"] = wrong;
+  j["wrong_per_million"] = rays ? 1e6 * double(wrong) / double(rays) : 0.0;
+  return j;
+}
+
+// The price of exactness: the closest hits of every judged contender on every ray of every set, each
+// judged by the float64 referee against the triangles any of them reported (and, for the hostile rays,
+// the triangle the ray was aimed at). Returns per contender {set: verdict counts}, hostile ones by kind.
+std::vector<Json> judge_runs(const TriangleMesh& mesh, std::vector<Contender>& contenders,
+                             const std::vector<size_t>& judged, const std::vector<RaySet>& sets,
+                             const HostileRays& hostile) {
+  const Referee referee(mesh);
+  std::vector<Json> out(contenders.size(), Json::object());
+  for (const RaySet& set : sets) {
+    const bool aimed = set.name == "hostile";
+    std::vector<std::vector<Hit>> hits(contenders.size());
+    for (size_t i : judged) {
+      hits[i].resize(set.rays.size());
+      contenders[i].tracer.closest(set.rays, hits[i]);
+    }
+    for (size_t i : judged) {
+      std::array<uint64_t, kVerdicts> counts{};
+      std::vector<std::array<uint64_t, kVerdicts>> by_kind(kHostileKinds);
+      std::vector<uint32_t> candidates;
+      Json examples = Json::array();
+      for (size_t r = 0; r < set.rays.size(); ++r) {
+        candidates.clear();
+        for (size_t j : judged) candidates.push_back(hits[j][r].triangle);
+        if (aimed) candidates.push_back(hostile.target[r]);
+        const Referee::Judgement judgement = referee.judge(set.rays[r], hits[i][r], candidates);
+        const int v = int(judgement.verdict);
+        ++counts[v];
+        if (aimed) ++by_kind[int(hostile.kind[r])][v];
+        if (judgement.verdict != Verdict::Right && counts[v] <= kWrongExamples) {
+          const Ray& ray = set.rays[r];
+          const Hit& h = hits[i][r];
+          examples.push_back(
+              {{"verdict", verdict_name(judgement.verdict)},
+               {"kind", aimed ? hostile_kind_name(hostile.kind[r]) : set.name.c_str()},
+               {"origin", {ray.origin.x, ray.origin.y, ray.origin.z}},
+               {"direction", {ray.direction.x, ray.direction.y, ray.direction.z}},
+               {"tmin", ray.tmin},
+               {"tmax", ray.tmax},
+               {"triangle", h.valid() ? Json(h.triangle) : Json(nullptr)},
+               {"t", h.valid() ? Json(h.t) : Json(nullptr)},
+               {"passed_by", judgement.witness == kInvalidIndex ? Json(nullptr) : Json(judgement.witness)}});
+        }
+      }
+      Json j = verdicts_json(counts);
+      j["examples"] = std::move(examples);
+      if (aimed) {
+        Json kinds = Json::object();
+        for (int k = 0; k < kHostileKinds; ++k) kinds[hostile_kind_name(HostileKind(k))] = verdicts_json(by_kind[k]);
+        j["by_kind"] = std::move(kinds);
+      }
+      out[i][set.name] = std::move(j);
+    }
+  }
+  return out;
+}
+
 // Build times of every builder at every thread count, repetitions interleaved as in trace_runs.
 // `build(i)` builds contender i and returns its seconds; it throws for a structure that cannot be
 // built (the caller leaves it out).
@@ -397,8 +496,10 @@ int run(const Options& o) {
   const auto mesh = std::make_shared<TriangleMesh>(load(o.mesh));
   mesh->validate();
   const Bounds bounds = mesh->bounds();
-  const std::vector<RaySet> sets{{"camera", camera_rays(bounds, o.camera_width, o.camera_height)},
-                                 {"random", random_rays(bounds, o.random_rays)}};
+  const HostileRays hostile = hostile_rays(*mesh, o.hostile_rays, 20241203);
+  std::vector<RaySet> sets{{"camera", camera_rays(bounds, o.camera_width, o.camera_height)},
+                           {"random", random_rays(bounds, o.random_rays)}};
+  if (!hostile.rays.empty()) sets.push_back({"hostile", hostile.rays});
   std::cerr << o.name << ": " << mesh->triangle_count() << " triangles\n";
 
   // The oracle: Embree at medium quality, the default of rtcNewScene.
@@ -410,29 +511,37 @@ int run(const Options& o) {
   Json tracers = Json::array();
   struct Built {
     std::string name, kind;
+    bool judged = false;     // its answers judged by the float64 referee
     BuildSettings settings;  // raylab
     std::unique_ptr<Structure> structure;
     RTCBuildQuality quality{};  // Embree
     std::unique_ptr<EmbreeTracer> embree;
   };
   std::vector<Built> built;
-  for (const std::string& name : o.structures) {
-    std::cerr << "  " << name << "\n";
-    Built b{name, "raylab"};
-    b.settings.kind = structure_kind_from_name(name);
-    b.settings.max_depth = o.max_depth;
-    b.settings.leaf_size = o.leaf_size;
-    try {
-      b.structure = build_structure(mesh, b.settings);
-    } catch (const std::exception& e) {  // a structure not written yet, or over the memory budget
-      tracers.push_back({{"name", name}, {"kind", "raylab"}, {"error", e.what()}});
-      continue;
+  for (const std::string& structure : o.structures)
+    for (const std::string& contract_text : o.contracts) {
+      // Each contract of a structure that takes one (bvh, bvh_fast); the exact one of the others.
+      const StructureInfo& info = structure_info(structure);
+      const Contract contract = contract_from_name(contract_text);
+      if (contract != Contract::Exact && !info.uses_contract) continue;
+      const std::string name = contract == Contract::Exact ? structure : structure + "_" + contract_text;
+      std::cerr << "  " << name << "\n";
+      Built b{name, "raylab", info.uses_contract};
+      b.settings.kind = info.kind;
+      b.settings.max_depth = o.max_depth;
+      b.settings.leaf_size = o.leaf_size;
+      b.settings.contract = contract;
+      try {
+        b.structure = build_structure(mesh, b.settings);
+      } catch (const std::exception& e) {  // a structure not written yet, over the memory budget, no AVX2
+        tracers.push_back({{"name", name}, {"kind", "raylab"}, {"contract", contract_text}, {"error", e.what()}});
+        continue;
+      }
+      built.push_back(std::move(b));
     }
-    built.push_back(std::move(b));
-  }
   for (const std::string& quality : o.embree_qualities) {
     std::cerr << "  embree " << quality << "\n";
-    Built b{"embree_" + quality, "embree"};
+    Built b{"embree_" + quality, "embree", true};
     b.quality = kEmbreeQualities.at(quality);
     b.embree = std::make_unique<EmbreeTracer>(*mesh);
     b.embree->build(b.quality);
@@ -475,21 +584,32 @@ int run(const Options& o) {
                           counts_and_agreement});
   }
   trace_runs(contenders, sets, o);
+  std::vector<size_t> judged;
+  for (size_t i = 0; i < built.size(); ++i)
+    if (built[i].judged) judged.push_back(i);
+  std::vector<Json> exactness = judge_runs(*mesh, contenders, judged, sets, hostile);
   for (size_t i = 0; i < built.size(); ++i) {
     const Built& b = built[i];
     tracers.push_back(
         {{"name", b.name},
          {"kind", b.kind},
+         {"contract", b.embree ? Json(nullptr) : Json(contract_name(b.settings.contract))},
          {"error", nullptr},
          {"build", build_times[i]},
          {"memory_bytes", b.embree ? b.embree->memory_bytes() : b.structure->memory_bytes()},
-         {"tracing", {{"runs", std::move(contenders[i].runs)}, {"per_ray_set", std::move(contenders[i].per_set)}}}});
+         {"tracing", {{"runs", std::move(contenders[i].runs)}, {"per_ray_set", std::move(contenders[i].per_set)}}},
+         {"exactness", std::move(exactness[i])}});
   }
 
   export_for_python(o, *mesh, sets, oracle);
 
   Json set_info = Json::object();
   for (const RaySet& set : sets) set_info[set.name] = {{"count", set.rays.size()}};
+  if (!hostile.rays.empty()) {
+    Json kinds = Json::array();
+    for (int k = 0; k < kHostileKinds; ++k) kinds.push_back(hostile_kind_name(HostileKind(k)));
+    set_info["hostile"]["kinds"] = std::move(kinds);
+  }
   const Json result{
       {"mesh", o.name},
       {"source", o.mesh},
