@@ -72,7 +72,12 @@ def test_an_import_inside_a_function_closes_a_circle():
         "raylab.blender.a", "raylab.blender.b", "raylab.blender.a"]
 
 
-VALUES = {setting: 5 + i for i, setting in enumerate(build_settings.SETTINGS)}  # one value per setting
+VALUES = {"max_depth": 5, "leaf_size": 6, "contract": "fast"}  # one value per setting, none the default
+OTHER = {"max_depth": 7, "leaf_size": 8, "contract": "exact"}   # another value of each
+
+
+def test_every_setting_has_its_test_values():
+    assert set(VALUES) == set(OTHER) == set(build_settings.SETTINGS)
 
 
 def props(structure, max_depth_auto=False, **changed):
@@ -86,7 +91,7 @@ def test_the_cache_key_holds_only_the_settings_a_kind_uses(structure):
     key = build_settings.cache_key(props(structure))
     assert key == (structure, *(VALUES[s] if info[f"uses_{s}"] else None for s in build_settings.SETTINGS))
     for setting in build_settings.SETTINGS:  # a setting the kind does not use changes no key: no rebuild
-        other = build_settings.cache_key(props(structure, **{setting: VALUES[setting] + 1}))
+        other = build_settings.cache_key(props(structure, **{setting: OTHER[setting]}))
         assert (other == key) != info[f"uses_{setting}"], setting
 
 
@@ -97,5 +102,8 @@ def test_auto_depth_is_the_cores_auto_and_every_build_takes_the_same_arguments()
     vertices, triangles = raylab.load_mesh(PACKAGE / "meshes" / "sphere.obj")
     octree = raylab.build(vertices, triangles, **build_settings.build_kwargs(props("octree")))
     assert octree.max_depth == VALUES["max_depth"]
+    assert octree.contract == "exact"  # a kind without a fast contract builds exact, not refused
+    bvh = raylab.build(vertices, triangles, **build_settings.build_kwargs(props("bvh")))
+    assert bvh.contract == "fast" and bvh.leaf_size == VALUES["leaf_size"]
     scene = raylab.Scene(**build_settings.build_kwargs(props("octree", max_depth_auto=True)))
     assert scene is not None

@@ -2,12 +2,13 @@
 viewport, scene.raylab_render for F12 and the comparison): which settings a kind uses, the depth rule,
 the cache key, and the keyword arguments of every build (raylab.Scene, raylab.build, build_scene).
 
-No bpy here: `props` is anything with structure, max_depth_auto, max_depth and leaf_size (a property
-group, or a SimpleNamespace in a test). properties.py defines those four for both groups in one place.
+No bpy here: `props` is anything with structure, max_depth_auto, max_depth, leaf_size and contract (a
+property group, or a SimpleNamespace in a test). properties.py defines those five for both groups in one
+place.
 """
 from .. import api
 
-SETTINGS = ("max_depth", "leaf_size")  # a kind uses one when api.STRUCTURE_INFO[kind]["uses_<setting>"]
+SETTINGS = ("max_depth", "leaf_size", "contract")  # a kind uses one when api.STRUCTURE_INFO[kind]["uses_<setting>"]
 
 
 def uses(structure, setting):
@@ -21,10 +22,18 @@ def max_depth(props):
     return "auto" if props.max_depth_auto else props.max_depth
 
 
+def contract(props, structure):
+    """The group's contract where `structure` takes one, else the exact default: the core refuses the fast
+    contract for a kind without it, and the comparison builds every kind with one group's settings."""
+    return props.contract if uses(structure, "contract") else api.DEFAULTS["contract"]
+
+
 def build_kwargs(props, structure=None):
-    """structure, max_depth and leaf_size of a build from `props`; `structure` builds another kind with
-    the group's depth and leaf size (the comparison builds every kind)."""
-    return dict(structure=structure or props.structure, max_depth=max_depth(props), leaf_size=props.leaf_size)
+    """structure, max_depth, leaf_size and contract of a build from `props`; `structure` builds another
+    kind with the group's settings (the comparison builds every kind)."""
+    structure = structure or props.structure
+    return dict(structure=structure, max_depth=max_depth(props), leaf_size=props.leaf_size,
+                contract=contract(props, structure))
 
 
 def cache_key(props):

@@ -57,7 +57,7 @@ class CompareJob:
     cancel(). Inputs are plain data (an ExportedScene, render settings, build parameters)."""
     exported: object
     settings: dict
-    build: dict                       # build_settings.build_kwargs: each structure builds as its own kind
+    build: dict                       # structure -> its build_settings.build_kwargs
     structures: tuple = api.STRUCTURES
     time_limit: float = 0.0           # seconds; 0 = none
     results: list = field(default_factory=list)
@@ -111,7 +111,7 @@ class CompareJob:
             self.fraction = start + share * fraction
             return self._cancel.is_set()
 
-        scene, _ = build_scene(self.exported, **{**self.build, "structure": structure})
+        scene, _ = build_scene(self.exported, **self.build[structure])
         estimate = None
         if self.time_limit > 0.0:
             estimated = self._estimate(scene)
@@ -156,7 +156,7 @@ def make_job(exported, props, super_sampling=None, structures=api.STRUCTURES, ti
     """The job for an export with the settings of scene.raylab_render (read now, on the main thread);
     cost_rays: which rays the results' per-pixel cost counts (api.COST_RAYS)."""
     return CompareJob(exported, render_settings(exported, props, super_sampling, cost_rays),
-                      build_settings.build_kwargs(props), tuple(structures),
+                      {s: build_settings.build_kwargs(props, s) for s in structures}, tuple(structures),
                       time_limit)
 
 

@@ -28,9 +28,14 @@ def structure_items(drawable_only=False):
             if info["has_boxes"] or not drawable_only]
 
 
+def contract_items():
+    """EnumProperty items from the core's table of contracts (api.CONTRACT_INFO): exact, fast."""
+    return [(name, info["label"], info["description"]) for name, info in api.CONTRACT_INFO.items()]
+
+
 def structure_properties(*, drawable_only, structure, max_depth, auto_depth, update=None):
     """The structure and its build settings (build_settings.py reads them), defined once for both groups so
-    that their limits cannot drift: a mix-in class of the four properties. `drawable_only`: no kind
+    that their limits cannot drift: a mix-in class of the five properties. `drawable_only`: no kind
     without boxes (the overlay's list); `structure`, `max_depth`, `auto_depth`: the defaults; `update`:
     what a change calls."""
     on_change = {} if update is None else {"update": update}
@@ -49,6 +54,10 @@ def structure_properties(*, drawable_only, structure, max_depth, auto_depth, upd
         "leaf_size": IntProperty(name="Leaf size", min=1, max=256, default=api.DEFAULTS["leaf_size"], **on_change,
                                  description="Triangles a node may hold before it splits (octree) / per leaf "
                                              "(BVH)"),
+        "contract": EnumProperty(name="Contract", items=contract_items(), default=api.DEFAULTS["contract"],
+                                 **on_change,
+                                 description="BVH: what a hit promises. Exact: the same hit as brute force; "
+                                             "fast: Embree's tests, faster, wrong at edges and near surfaces"),
     }})
 
 
@@ -131,7 +140,7 @@ def _pixel_setter(axis):
 # there: the levels teach with the depth slider.
 class RAYLAB_PG_scene(structure_properties(drawable_only=True, structure="octree", max_depth=4, auto_depth=False,
                                            update=_redraw), bpy.types.PropertyGroup):
-    # Structure overlay: structure, max_depth_auto, max_depth, leaf_size from structure_properties
+    # Structure overlay: structure, max_depth_auto, max_depth, leaf_size, contract from structure_properties
     animation_update: EnumProperty(name="On animation", default="REFIT", update=_redraw, items=[
         ("REFIT", "Refit", "Keep the structure's tree and recompute its boxes: fast, but the tree degrades "
                            "(octree and grid rebuild anyway)"),
@@ -213,7 +222,7 @@ class RAYLAB_PG_render(structure_properties(drawable_only=False, structure=api.D
                                             auto_depth=api.DEFAULTS["max_depth"] == "auto"),
                        bpy.types.PropertyGroup):
     """scene.raylab_render: the raylab render engine and the structure comparison (structure, max_depth_auto,
-    max_depth, leaf_size from structure_properties)."""
+    max_depth, leaf_size, contract from structure_properties)."""
 
     super_sampling: IntProperty(name="Super Sampling", default=1, min=1, max=4,
                                 description="N x N camera rays per pixel")

@@ -28,6 +28,9 @@ def draw_structure_settings(layout, props):
     leaf = layout.row()
     leaf.active = build_settings.uses(props.structure, "leaf_size")
     leaf.prop(props, "leaf_size")
+    contract = layout.row()
+    contract.active = build_settings.uses(props.structure, "contract")
+    contract.prop(props, "contract")
 
 
 def labelled(layout, props, name, factor=0.5):
