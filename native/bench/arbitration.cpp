@@ -167,4 +167,14 @@ Referee::Judgement Referee::judge(const Ray& ray, const Hit& answer, std::span<c
   return missed;
 }
 
+Verdict Referee::judge_occlusion(const Ray& ray, bool occluded, std::span<const uint32_t> candidates) const {
+  if (!occluded) return judge(ray, Hit{}, candidates).verdict;
+  for (const uint32_t c : candidates) {
+    if (c == kInvalidIndex) continue;
+    const Solution s = solve(ray, c);
+    if (!s.parallel && s.position != Place::Outside && s.interval != Place::Outside) return Verdict::Right;
+  }
+  return Verdict::OffTriangle;  // occluded by nothing any tracer found
+}
+
 }  // namespace raylab::bench

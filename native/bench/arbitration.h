@@ -37,6 +37,9 @@ class Referee {
     uint32_t witness = kInvalidIndex;  // missed_inside, leaked: the nearer triangle that was passed by
   };
   Judgement judge(const Ray& ray, const Hit& answer, std::span<const uint32_t> candidates) const;
+  // An any-hit answer: occluded is right when a candidate may be hit (inside or a tie, t not outside the
+  // interval); not occluded is judged as a closest-hit miss.
+  Verdict judge_occlusion(const Ray& ray, bool occluded, std::span<const uint32_t> candidates) const;
   bool closed() const { return open_edges_ == 0; }  // every edge shared by exactly two triangles
 
  private:

@@ -114,6 +114,35 @@ nlohmann::ordered_json hit_json(const TriangleMesh& mesh, const Ray& ray, const 
           {"on_edge", near_edge(mesh, ray, h)}};
 }
 
+// An unexplained difference settled by the referee's verdicts on both answers.
+Agreement arbitrated(bool ours_right, bool theirs_right) {
+  if (ours_right && theirs_right) return Agreement::RefereeTie;
+  if (ours_right) return Agreement::EmbreeWrong;
+  if (theirs_right) return Agreement::RaylabWrong;
+  return Agreement::Unexplained;
+}
+
+std::vector<uint32_t> candidates_of(const Arbiter& arbiter, size_t i, const Hit& ours, const Hit& theirs) {
+  std::vector<uint32_t> candidates{ours.triangle, theirs.triangle};
+  if (!arbiter.targets.empty()) candidates.push_back(arbiter.targets[i]);
+  return candidates;
+}
+
+Agreement arbitrate(const Arbiter& arbiter, size_t i, const Ray& ray, const Hit& ours, const Hit& theirs) {
+  if (!arbiter.referee) return Agreement::Unexplained;
+  const std::vector<uint32_t> candidates = candidates_of(arbiter, i, ours, theirs);
+  return arbitrated(arbiter.referee->judge(ray, ours, candidates).verdict == Verdict::Right,
+                    arbiter.referee->judge(ray, theirs, candidates).verdict == Verdict::Right);
+}
+
+Agreement arbitrate_any(const Arbiter& arbiter, size_t i, const Ray& ray, bool ours, bool theirs,
+                        const Hit& our_closest, const Hit& their_closest) {
+  if (!arbiter.referee) return Agreement::Unexplained;
+  const std::vector<uint32_t> candidates = candidates_of(arbiter, i, our_closest, their_closest);
+  return arbitrated(arbiter.referee->judge_occlusion(ray, ours, candidates) == Verdict::Right,
+                    arbiter.referee->judge_occlusion(ray, theirs, candidates) == Verdict::Right);
+}
+
 void keep(Comparison& c, Agreement kind, const Ray& ray, const Hit& ours, const Hit& theirs) {
   ++c.counts[int(kind)];
   if (kind != Agreement::Same && c.counts[int(kind)] <= kExamplesPerKind)
@@ -131,6 +160,9 @@ const char* agreement_name(Agreement a) {
     case Agreement::EdgeRay: return "edge_ray";
     case Agreement::EdgeRayPassed: return "edge_ray_passed";
     case Agreement::Grazing: return "grazing";
+    case Agreement::EmbreeWrong: return "embree_wrong";
+    case Agreement::RaylabWrong: return "raylab_wrong";
+    case Agreement::RefereeTie: return "referee_tie";
     case Agreement::Unexplained: return "unexplained";
   }
   return "?";
@@ -160,16 +192,19 @@ Agreement classify(const TriangleMesh& mesh, const Ray& ray, const Hit& ours, co
 }
 
 Comparison compare_closest(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const Hit> ours,
-                           std::span<const Hit> theirs) {
+                           std::span<const Hit> theirs, const Arbiter& arbiter) {
   Comparison c;
-  for (size_t i = 0; i < rays.size(); ++i)
-    keep(c, classify(mesh, rays[i], ours[i], theirs[i]), rays[i], ours[i], theirs[i]);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Agreement kind = classify(mesh, rays[i], ours[i], theirs[i]);
+    if (kind == Agreement::Unexplained) kind = arbitrate(arbiter, i, rays[i], ours[i], theirs[i]);
+    keep(c, kind, rays[i], ours[i], theirs[i]);
+  }
   return c;
 }
 
 Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std::span<const uint8_t> ours,
                        std::span<const uint8_t> theirs, std::span<const Hit> our_closest,
-                       std::span<const Hit> their_closest) {
+                       std::span<const Hit> their_closest, const Arbiter& arbiter) {
   Comparison c;
   for (size_t i = 0; i < rays.size(); ++i) {
     if (bool(ours[i]) == bool(theirs[i])) {
@@ -179,9 +214,11 @@ Comparison compare_any(const TriangleMesh& mesh, std::span<const Ray> rays, std:
     // The tracer that saw an occluder saw it as its closest hit too; that hit tells whether the ray
     // only touched an edge.
     const Hit& seen = ours[i] ? our_closest[i] : their_closest[i];
-    const Agreement kind = !seen.valid() || !near_edge(mesh, rays[i], seen) ? Agreement::Unexplained
-                           : ours[i]                                        ? Agreement::EdgeRay
-                                                                            : Agreement::EdgeRayPassed;
+    Agreement kind = !seen.valid() || !near_edge(mesh, rays[i], seen) ? Agreement::Unexplained
+                     : ours[i]                                        ? Agreement::EdgeRay
+                                                                      : Agreement::EdgeRayPassed;
+    if (kind == Agreement::Unexplained)
+      kind = arbitrate_any(arbiter, i, rays[i], ours[i], theirs[i], our_closest[i], their_closest[i]);
     keep(c, kind, rays[i], our_closest[i], their_closest[i]);
   }
   return c;
@@ -202,6 +239,7 @@ nlohmann::ordered_json comparison_json(const TriangleMesh& mesh, const Compariso
                         {"origin", {r.origin.x, r.origin.y, r.origin.z}},
                         {"direction", {r.direction.x, r.direction.y, r.direction.z}},
                         {"tmin", r.tmin},
+                        {"tmax", r.tmax},
                         {"raylab", hit_json(mesh, r, e.ours)},
                         {"embree", hit_json(mesh, r, e.theirs)}});
   }

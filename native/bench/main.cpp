@@ -247,6 +247,27 @@ std::vector<Ray> random_rays(const Bounds& b, size_t n) {
   return rays;
 }
 
+// From every camera ray's hit (Embree's, the oracle's) towards a point light above and to the left of the
+// camera, in pixel order: the renderer's shadow rays, coherent as a tile's are. tmin keeps a ray off the
+// surface it starts on (1e-4 of the mesh's size); tmax = 1 ends it at the light.
+std::vector<Ray> shadow_rays(const EmbreeTracer& oracle, const Bounds& b, const std::vector<Ray>& camera) {
+  std::vector<Hit> hits(camera.size());
+  oracle.closest(camera, hits);
+  const float size = glm::length(b.extent());
+  const glm::vec3 light = b.center() + size * glm::vec3(-0.6f, 1.2f, 1.0f);
+  std::vector<Ray> rays;
+  for (size_t i = 0; i < camera.size(); ++i) {
+    if (!hits[i].valid()) continue;
+    Ray r;
+    r.origin = camera[i].at(hits[i].t);
+    r.direction = light - r.origin;
+    r.tmin = 1e-4f * size / glm::length(r.direction);
+    r.tmax = 1.0f;
+    rays.push_back(r);
+  }
+  return rays;
+}
+
 // n rays spread over the whole set (every k-th), so a subset sees the same mix as the set.
 std::vector<Ray> strided(const std::vector<Ray>& rays, size_t n) {
   n = std::min(n, rays.size());
@@ -399,10 +420,9 @@ Json verdicts_json(const std::array<uint64_t, kVerdicts>& counts) {
 // The price of exactness: the closest hits of every judged contender on every ray of every set, each
 // judged by the float64 referee against the triangles any of them reported (and, for the hostile rays,
 // the triangle the ray was aimed at). Returns per contender {set: verdict counts}, hostile ones by kind.
-std::vector<Json> judge_runs(const TriangleMesh& mesh, std::vector<Contender>& contenders,
+std::vector<Json> judge_runs(const Referee& referee, std::vector<Contender>& contenders,
                              const std::vector<size_t>& judged, const std::vector<RaySet>& sets,
                              const HostileRays& hostile) {
-  const Referee referee(mesh);
   std::vector<Json> out(contenders.size(), Json::object());
   for (const RaySet& set : sets) {
     const bool aimed = set.name == "hostile";
@@ -496,15 +516,18 @@ int run(const Options& o) {
   const auto mesh = std::make_shared<TriangleMesh>(load(o.mesh));
   mesh->validate();
   const Bounds bounds = mesh->bounds();
-  const HostileRays hostile = hostile_rays(*mesh, o.hostile_rays, 20241203);
-  std::vector<RaySet> sets{{"camera", camera_rays(bounds, o.camera_width, o.camera_height)},
-                           {"random", random_rays(bounds, o.random_rays)}};
-  if (!hostile.rays.empty()) sets.push_back({"hostile", hostile.rays});
   std::cerr << o.name << ": " << mesh->triangle_count() << " triangles\n";
 
   // The oracle: Embree at medium quality, the default of rtcNewScene.
   EmbreeTracer oracle(*mesh);
   oracle.build(RTC_BUILD_QUALITY_MEDIUM);
+
+  const std::vector<Ray> camera = camera_rays(bounds, o.camera_width, o.camera_height);
+  const HostileRays hostile = hostile_rays(*mesh, o.hostile_rays, 20241203);
+  std::vector<RaySet> sets{{"camera", camera},
+                           {"shadow", shadow_rays(oracle, bounds, camera)},
+                           {"random", random_rays(bounds, o.random_rays)}};
+  if (!hostile.rays.empty()) sets.push_back({"hostile", hostile.rays});
 
   // Every structure and Embree build first (one that cannot be built is reported with its error),
   // then the build times and the tracing, each interleaved across them.
@@ -554,6 +577,7 @@ int run(const Options& o) {
     return b.structure->build_seconds();
   });
 
+  const Referee referee(*mesh);
   std::vector<Contender> contenders;
   for (Built& b : built) {
     if (b.embree) {
@@ -565,7 +589,8 @@ int run(const Options& o) {
       continue;
     }
     const Structure& s = *b.structure;
-    auto counts_and_agreement = [&s, &mesh, &oracle](const RaySet&, const std::vector<Ray>& rays) {
+    auto counts_and_agreement = [&s, &mesh, &oracle, &referee, &hostile](const RaySet& set,
+                                                                         const std::vector<Ray>& rays) {
       std::vector<Hit> ours(rays.size()), theirs(rays.size());
       std::vector<uint8_t> our_any(rays.size()), their_any(rays.size());
       TraversalStats closest_stats, any_stats;
@@ -573,10 +598,14 @@ int run(const Options& o) {
       intersect_any(s, rays, our_any, &any_stats);
       oracle.closest(rays, theirs);
       oracle.any(rays, their_any);
-      return Json{{"counts", {{"closest", stats_json(closest_stats)}, {"any", stats_json(any_stats)}}},
-                  {"agreement_with_embree",
-                   {{"closest", comparison_json(*mesh, compare_closest(*mesh, rays, ours, theirs))},
-                    {"any", comparison_json(*mesh, compare_any(*mesh, rays, our_any, their_any, ours, theirs))}}}};
+      // The hostile set is checked whole (its rays are few), so its targets line up with the rays.
+      const bool aimed = set.name == "hostile" && rays.size() == hostile.rays.size();
+      const Arbiter arbiter{&referee, aimed ? std::span<const uint32_t>(hostile.target) : std::span<const uint32_t>()};
+      return Json{
+          {"counts", {{"closest", stats_json(closest_stats)}, {"any", stats_json(any_stats)}}},
+          {"agreement_with_embree",
+           {{"closest", comparison_json(*mesh, compare_closest(*mesh, rays, ours, theirs, arbiter))},
+            {"any", comparison_json(*mesh, compare_any(*mesh, rays, our_any, their_any, ours, theirs, arbiter))}}}};
     };
     contenders.push_back({b.name,
                           {[&s](auto r, auto h) { intersect_closest(s, r, h, nullptr); },
@@ -587,7 +616,7 @@ int run(const Options& o) {
   std::vector<size_t> judged;
   for (size_t i = 0; i < built.size(); ++i)
     if (built[i].judged) judged.push_back(i);
-  std::vector<Json> exactness = judge_runs(*mesh, contenders, judged, sets, hostile);
+  std::vector<Json> exactness = judge_runs(referee, contenders, judged, sets, hostile);
   for (size_t i = 0; i < built.size(); ++i) {
     const Built& b = built[i];
     tracers.push_back(
