@@ -26,7 +26,8 @@ MESH_DIR = ROOT / "addon" / "raylab" / "meshes"
 FULL = {
     "meshes": [("goathead", "goathead.obj"), ("bunny_hr", "bunny_hr.obj"), ("dragon", "dragon.obj"),
                ("icosphere", "icosphere:8"), ("dragon_1600k", "subdivided:2:dragon.obj")],
-    "native": ["--camera", "512x384", "--random-rays", "100000", "--export-rays", "20000", "--reps", "5",
+    "native": ["--camera", "512x384", "--random-rays", "100000", "--hostile-rays", "21000", "--export-rays", "20000",
+               "--reps", "5",
                "--build-reps", "7", "--rep-seconds", "0.08", "--threads", "1,2", "--embree", "medium,high"],
     "blender_reps": 3,
     "thesis": {"width": 160, "height": 120, "super_sampling": [1, 2, 3, 4], "reps": 3, "reference_ss": 8},
@@ -36,7 +37,8 @@ FULL = {
 }
 QUICK = {
     "meshes": [("goathead", "goathead.obj")],
-    "native": ["--camera", "48x36", "--random-rays", "1500", "--export-rays", "300", "--reps", "1",
+    "native": ["--camera", "48x36", "--random-rays", "1500", "--hostile-rays", "1400", "--export-rays", "300",
+               "--reps", "1",
                "--build-reps", "1", "--rep-seconds", "0.01", "--threads", "1,2", "--embree", "medium"],
     "blender_reps": 1,
     "thesis": {"width": 32, "height": 24, "super_sampling": [1, 2], "reps": 1, "reference_ss": 4},

@@ -9,7 +9,7 @@ import raylab
 
 from .. import panel_figure as page
 from ..panel_figure import SMALL_PT
-from .experiments import THESIS, thesis_structures
+from .experiments import THESIS, leak_method, thesis_structures
 from .run import run_lookup
 
 MESH_COLORS = ["#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02"]
@@ -173,13 +173,17 @@ def chart_speed_accuracy(results, path):
 MESH_NAMES = {"goathead": "goat", "icosphere": "sphere"}
 
 
+LEAK_LABELS = {"moller_trumbore": "Möller–Trumbore", "fast": "fast"}
+LEAK_COLORS = {"watertight": "#2ca02c", "moller_trumbore": "#d62728", "fast": "#ff7f0e"}
+
+
 def chart_leaks(results, path):
-    """Rays from inside closed meshes that escape (Möller–Trumbore; the watertight test lets none out),
-    and each test's rays per second on the same rays."""
+    """Rays from inside closed meshes that escape (Möller–Trumbore; the watertight test lets none out,
+    the fast contract's count in a note), and each method's rays per second on the same rays."""
     rows = results["leaks"]
     meshes = list(dict.fromkeys(r["mesh"] for r in rows))
     kinds = list(dict.fromkeys(r["rays"] for r in rows))
-    tests = list(raylab.TRIANGLE_TESTS)
+    tests = list(dict.fromkeys(leak_method(r) for r in rows))
     fig = page.figure(2)
     leaky = "moller_trumbore"
     page.title(fig, 0, "Möller–Trumbore:\nrays that escape")
@@ -187,7 +191,7 @@ def chart_leaks(results, path):
     width = 0.8 / len(kinds)
     for k, kind in enumerate(kinds):
         values = [100.0 * r["escaped"] / r["ray_count"] for m in meshes for r in rows
-                  if r["mesh"] == m and r["rays"] == kind and r["triangle_test"] == leaky]
+                  if r["mesh"] == m and r["rays"] == kind and leak_method(r) == leaky]
         ax.bar(np.arange(len(meshes)) + (k - (len(kinds) - 1) / 2) * width, values, width, label=kind,
                color=MESH_COLORS[k + 3])
     ax.set_xticks(range(len(meshes)), [MESH_NAMES.get(m, m) for m in meshes])
@@ -195,8 +199,13 @@ def chart_leaks(results, path):
     ax.grid(axis="y", alpha=0.4)
     ax.legend(loc="upper center", bbox_to_anchor=(0.4, -0.13), ncol=3, frameon=False, handlelength=1.0,
               handletextpad=0.3, columnspacing=0.7, title="rays aimed at")
-    watertight = sum(r["escaped"] for r in rows if r["triangle_test"] != leaky)
-    page.note(fig, 0, 0.5, 0.09, f"watertight: {watertight} escape", ha="center", color="#2ca02c")
+    watertight = sum(r["escaped"] for r in rows if leak_method(r) == "watertight")
+    fast = [r for r in rows if leak_method(r) == "fast"]
+    note = f"watertight: {watertight} escape"
+    if fast:
+        share = 100.0 * sum(r["escaped"] for r in fast) / sum(r["ray_count"] for r in fast)
+        note = f"watertight {watertight}, fast {share:.2g} %"  # the title says what they count
+    page.note(fig, 0, 0.5, 0.09, note, ha="center", color="#2ca02c")
     page.title(fig, 1, "million rays per second\n(BVH, all its rays)", size=page.TEXT_PT)
     ax = fig.add_axes(page.rect(fig, 1, 0.2, 0.3, 0.76, 0.5))
     width = 0.8 / len(tests)
@@ -205,14 +214,57 @@ def chart_leaks(results, path):
         # their count over the sum of the kinds' times.
         values = []
         for m in meshes:
-            sel = [r for r in rows if r["mesh"] == m and r["triangle_test"] == test]
+            sel = [r for r in rows if r["mesh"] == m and leak_method(r) == test]
             seconds = sum(r["ray_count"] / r["rays_per_second"] for r in sel)
             values.append(sum(r["ray_count"] for r in sel) / seconds / 1e6)
         ax.bar(np.arange(len(meshes)) + (t - (len(tests) - 1) / 2) * width, values, width,
-               label="Möller–Trumbore" if test == leaky else test, color=["#2ca02c", "#d62728"][t % 2])
+               label=LEAK_LABELS.get(test, test), color=LEAK_COLORS.get(test, "#7f7f7f"))
     ax.set_xticks(range(len(meshes)), [MESH_NAMES.get(m, m) for m in meshes])
     ax.grid(axis="y", alpha=0.4)
-    ax.legend(loc="upper center", bbox_to_anchor=(0.4, -0.13), ncol=1, frameon=False)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.4, -0.13), ncol=1 if len(tests) < 3 else 2, frameon=False,
+              handlelength=1.0, handletextpad=0.3, columnspacing=0.7)
+    return _save(fig, path)
+
+
+PRICE_TRACERS = {"bvh": ("exact", "#1f77b4", "o"), "bvh_fast": ("fast", "#ff7f0e", "s"),
+                 "embree_medium": ("Embree med.", "#444444", "^"), "embree_high": ("Embree high", "#999999", "v")}
+ZERO_AT = 0.3  # where "0 wrong per million" sits on the log axis
+
+
+def chart_price(results, path):
+    """The price of exactness: speed against Embree medium (closest hit, one thread) over wrong answers per
+    million on the hostile rays, a point per mesh and tracer; camera rays above, random rays below."""
+    meshes = list(results["meshes"])
+    fig = page.figure(2)
+    for tile, ray_set in enumerate(("camera", "random")):
+        page.title(fig, tile, f"{ray_set} rays")
+        ax = fig.add_axes(page.rect(fig, tile, 0.24, 0.36, 0.7, 0.5))
+        ratios = []
+        for m in meshes:
+            tracers = {t["name"]: t for t in results["meshes"][m]["tracers"]}
+            embree = run_lookup(tracers.get("embree_medium", {}), ray_set, "closest", 1)
+            for name, (_, color, marker) in PRICE_TRACERS.items():
+                t = tracers.get(name)
+                run = run_lookup(t, ray_set, "closest", 1) if t and not t["error"] else None
+                hostile = (t or {}).get("exactness", {}).get("hostile")
+                if run and embree and hostile:
+                    wrong = hostile["wrong_per_million"]
+                    ratios.append(run["rays_per_second"] / embree["rays_per_second"])
+                    ax.plot(wrong if wrong > 0 else ZERO_AT, ratios[-1], marker, color=color, ms=11, alpha=0.85)
+        ax.set_xscale("log")
+        ax.set_xlim(ZERO_AT / 2, 4e5)
+        ax.set_xticks([ZERO_AT, 10, 1e3, 1e5], ["0", "10", "1k", "100k"])
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.axhline(1.0, color="black", lw=1)
+        ax.set_ylim(min([0.6] + ratios) - 0.05, max([1.2] + ratios) + 0.05)
+        ax.set_ylabel("speed / Embree med.")
+        ax.set_xlabel("wrong per million hostile", labelpad=2)
+        ax.grid(alpha=0.4)
+        handles = [Line2D([], [], ls="", marker=marker, ms=11, color=color)
+                   for _, color, marker in PRICE_TRACERS.values()]
+        fig.legend(handles, [label for label, _, _ in PRICE_TRACERS.values()], loc="upper center",
+                   bbox_to_anchor=(0.5, page.y(fig, tile, 0.2)), ncol=2, frameon=False, handletextpad=0.2,
+                   columnspacing=0.8)
     return _save(fig, path)
 
 
@@ -281,6 +333,8 @@ def write_charts(results, out, only=None):
         charts["bench_speed_accuracy.png"] = chart_speed_accuracy
     if results.get("animation"):
         charts["bench_animation.png"] = chart_animation
+    if any(t.get("exactness") for m in results["meshes"].values() for t in m["tracers"]):
+        charts["bench_price.png"] = chart_price
     for name, draw in charts.items():
         if only is None or name in only:
             draw(results, out / name)

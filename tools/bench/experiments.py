@@ -170,9 +170,20 @@ def inside_points(structure, lo, hi, count, rng):
     return candidates[inside][:count]
 
 
+# The BVH's ways of testing a triangle the leak experiment compares: each triangle test in the exact
+# contract, and each other contract (which takes the watertight setting).
+LEAK_METHODS = ([(test, "exact") for test in raylab.TRIANGLE_TESTS]
+                + [("watertight", contract) for contract in raylab.CONTRACTS if contract != "exact"])
+
+
+def leak_method(row):
+    """A leak row's method by one name: its triangle test in the exact contract, else its contract."""
+    return row["triangle_test"] if row.get("contract", "exact") == "exact" else row["contract"]
+
+
 def run_leaks(config, data_dir):
     """Rays from inside closed meshes towards vertices, edge midpoints and random directions: every
-    one must hit. Counts the escapes and the throughput of each triangle test on the same rays."""
+    one must hit. Counts the escapes and the throughput of each method (LEAK_METHODS) on the same rays."""
     cfg = config["leaks"]
     rng = np.random.default_rng(7)
     out = []
@@ -194,8 +205,8 @@ def run_leaks(config, data_dir):
                    "edge": 0.5 * (V[tri[np.arange(n), edge]] + V[tri[np.arange(n), (edge + 1) % 3]])}
         directions = {k: (p - origins) for k, p in targets.items()}
         directions["random"] = rng.normal(size=(n, 3)).astype(np.float32)
-        for test in raylab.TRIANGLE_TESTS:
-            s = raylab.build(V, T, structure="bvh", triangle_test=test)
+        for test, contract in LEAK_METHODS:
+            s = raylab.build(V, T, structure="bvh", triangle_test=test, contract=contract)
             for kind, d in directions.items():
                 seconds = []
                 for _ in range(cfg["reps"]):
@@ -203,7 +214,8 @@ def run_leaks(config, data_dir):
                     h = s.intersect(origins, d)
                     seconds.append(time.perf_counter() - start)
                 med = statistics.median(seconds)
-                out.append(dict(mesh=name, triangles=len(T), triangle_test=test, rays=kind, ray_count=n,
+                out.append(dict(mesh=name, triangles=len(T), triangle_test=test, contract=contract, rays=kind,
+                                ray_count=n,
                                 escaped=int((~h.hit).sum()), rays_per_second=n / med, seconds_median=med))
         log(f"leaks {name} done")
     return out

@@ -89,6 +89,14 @@ def results_from_report(text):
             "random_closest_2t_rays_per_second": float(row["random closest"]),
             "random_any_2t_rays_per_second": float(row["random any"]),
             "build_2t_seconds": float(row["build"]), "memory_bytes": ours / theirs}
+    # The price of exactness: one-thread speeds as ratios to Embree medium (its own row says 1.00), which is
+    # all the chart reads of them, and the wrong answers per million on the hostile rays.
+    for row in table(found, ["mesh", "tracer", "camera closest"]) if "## The price of exactness" in text else []:
+        tracer = next(t for t in results["meshes"][row["mesh"]]["tracers"] if t["name"] == row["tracer"])
+        for ray_set in ("camera", "random"):
+            tracer["tracing"]["runs"].append({"rays": ray_set, "query": "closest", "threads": 1,
+                                              "rays_per_second": float(row[f"{ray_set} closest"])})
+        tracer["exactness"] = {"hostile": {"wrong_per_million": number(row["hostile"])}}
     size = re.search(r"## The VRT thesis experiment \(section 6\.1\), (\d+)x(\d+) pixels", text)
     reference = re.search(r"rendered at super-sampling (\d+)x\d+", text)
     thesis = {"width": int(size[1]), "height": int(size[2]), "reference_super_sampling": int(reference[1]),
@@ -108,6 +116,7 @@ def results_from_report(text):
                                       "psnr_db": None if psnr == "inf" else float(psnr)})
     results["thesis"] = thesis
     results["leaks"] = [{"mesh": row["mesh"], "triangles": int(number(row["triangles"])), "triangle_test": row["test"],
+                         "contract": row.get("contract", "exact"),
                          "rays": row["rays aimed at"], "ray_count": int(row["rays"]), "escaped": int(row["escaped"]),
                          "rays_per_second": rate(row["rays/s"])}
                         for row in table(found, ["mesh", "triangles", "test"])]

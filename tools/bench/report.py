@@ -92,6 +92,56 @@ def summary_lines(results):
     return lines + [""]
 
 
+PRICE_RUNS = (("camera", "closest"), ("camera", "any"), ("shadow", "any"), ("random", "closest"), ("random", "any"))
+VERDICT_WORDS = {"off_triangle": "off its triangle", "outside_interval": "outside (tmin, tmax]",
+                 "missed_inside": "a hit inside a triangle missed", "leaked": "leaked through an edge or vertex"}
+
+
+def price_lines(results):
+    """The price of exactness: each judged tracer's speed against Embree (medium, one thread) beside its
+    wrong answers per million as the float64 referee counts them, per ray set; then the hostile rays by
+    kind."""
+    lines = ["## The price of exactness", "",
+             "Rays per second against Embree medium on one thread (above 1 is faster), and wrong answers per "
+             "million rays as the float64 referee of native/bench/arbitration.h judges them: a hit off its "
+             "triangle or outside (tmin, tmax], a hit inside a triangle missed, a ray leaked through an edge or "
+             "vertex where it crosses the surface. Ties within 4 float steps of an edge or of tmax are right "
+             "either way.", "",
+             "| mesh | tracer | " + " | ".join(f"{s} {q}" for s, q in PRICE_RUNS)
+             + " | wrong/M camera | shadow | random | hostile |",
+             "|---|---|" + "---|" * (len(PRICE_RUNS) + 4)]
+    for name, mesh in results["meshes"].items():
+        tracers = {t["name"]: t for t in mesh["tracers"]}
+        embree = tracers.get("embree_medium", {})
+        for t in mesh["tracers"]:
+            if t["error"] or not t.get("exactness"):
+                continue
+            ratios = []
+            for ray_set, query in PRICE_RUNS:
+                ours, theirs = run_lookup(t, ray_set, query, 1), run_lookup(embree, ray_set, query, 1)
+                ratios.append(f"{ours['rays_per_second'] / theirs['rays_per_second']:.2f}" if ours and theirs
+                              else "-")
+            wrong = [f"{t['exactness'][s]['wrong_per_million']:,.0f}" if s in t["exactness"] else "-"
+                     for s in ("camera", "shadow", "random", "hostile")]
+            lines.append(f"| {name} | {t['name']} | " + " | ".join(ratios + wrong) + " |")
+    kinds = next((m["ray_sets"]["hostile"]["kinds"] for m in results["meshes"].values()
+                  if "hostile" in m.get("ray_sets", {})), None)
+    if kinds:
+        lines += ["", "Hostile rays by kind: wrong answers / rays of the kind, and what they were.", "",
+                  "| mesh | tracer | " + " | ".join(kinds) + " | wrong answers |",
+                  "|---|---|" + "---|" * (len(kinds) + 1)]
+        for name, mesh in results["meshes"].items():
+            for t in mesh["tracers"]:
+                hostile = (t.get("exactness") or {}).get("hostile")
+                if t["error"] or not hostile:
+                    continue
+                by = hostile["by_kind"]
+                what = ", ".join(f"{hostile[v]} {words}" for v, words in VERDICT_WORDS.items() if hostile[v])
+                cells = [f"{by[k]['wrong']}/{by[k]['rays']}" for k in kinds]
+                lines.append(f"| {name} | {t['name']} | " + " | ".join(cells) + f" | {what or 'none'} |")
+    return lines + [""]
+
+
 def markdown(results):
     lines = ["# raylab benchmark", "",
              f"{results['machine']['date']}, {results['machine']['hardware_threads']} hardware threads, "
@@ -99,6 +149,7 @@ def markdown(results):
              "Rays/s are medians of repetitions in this run; ratios are raylab / Embree (medium quality) "
              "on the same rays.", ""]
     lines += summary_lines(results)
+    lines += price_lines(results)
     lines += ["## Throughput, build and memory", "",
               "| mesh | tris | tracer | build s (2t) | bytes/tri | camera closest 1t | 2t | camera any 2t "
               "| random closest 1t | 2t | random any 2t | boxes/ray | tris/ray | BVH/Embree camera | random | build |",
@@ -162,7 +213,10 @@ def markdown(results):
               "farther: "
               "Embree's default test is not watertight); *edge_ray_passed* (the reverse: Embree hits an edge the "
               "row's tracer passes); "
-              "*grazing* (same triangle, t differs, ray almost parallel to the face); *unexplained*.", ""]
+              "*grazing* (same triangle, t differs, ray almost parallel to the face); where none of these fits, the "
+              "float64 referee settles it: *embree_wrong* (it judges Embree's answer wrong and the row's right), "
+              "*raylab_wrong* (the reverse; never for the exact contract), *referee_tie* (both right: within its tie "
+              "distance of an edge or of tmax); *unexplained*.", ""]
     lines += disagreement_examples(results)
     th = results["thesis"]
     structures = thesis_structures(th)
@@ -192,9 +246,13 @@ def markdown(results):
             lines.append(f"| {e['structure']} | {e['super_sampling']} | {r['render_seconds_median']:.4f} "
                          f"| {e['rmse']:.5f} | {psnr} | {e['max_difference_to_other_structures']:.2g} |")
     lines += ["", "## Rays escaping closed meshes from inside", "",
-              "| mesh | triangles | test | rays aimed at | rays | escaped | rays/s |", "|---|---|---|---|---|---|---|"]
+              "| mesh | triangles | test | contract | rays aimed at | rays | escaped | rays/s |",
+              "|---|---|---|---|---|---|---|---|"]
     for r in results["leaks"]:
-        lines.append(f"| {r['mesh']} | {r['triangles']:,} | {r['triangle_test']} | {r['rays']} | {r['ray_count']} "
+        exact = r.get("contract", "exact") == "exact"  # another contract brings its own test
+        lines.append(f"| {r['mesh']} | {r['triangles']:,} | {r['triangle_test'] if exact else 'its own'} "
+                     f"| {r.get('contract', 'exact')} "
+                     f"| {r['rays']} | {r['ray_count']} "
                      f"| {r['escaped']} | {fmt_rate(r['rays_per_second'])} |")
     sh = results["self_hits"]
     lines += ["", "## False self-hits of shadow rays against scene scale", ""]
@@ -215,6 +273,7 @@ def markdown(results):
 # levels), and the README embeds them from there; the full table goes to docs/bench/results.md.
 PUBLISHED = {"bench_throughput.png": "race", "bench_embree_ratio.png": "race", "bench_thesis.png": "race",
              "bench_speed_accuracy.png": "race", "bench_leaks.png": "where_methods_fail",
+             "bench_price.png": "where_methods_fail",
              "bench_self_hits.png": "where_methods_fail", "bench_animation.png": "race"}
 
 

@@ -12,7 +12,9 @@ from . import MESH_DIR, ROOT, log
 BLENDER = ["blender", "-b", "--factory-startup", "--python-exit-code", "1"]
 # The kinds of disagreement of native/bench/hit_comparison.cpp, most benign first (its JSON keys).
 DISAGREEMENT_KINDS = ("same", "rounding", "shared_edge_vertex", "coincident_faces", "edge_ray", "edge_ray_passed",
-                      "grazing", "unexplained")
+                      "grazing", "embree_wrong", "raylab_wrong", "referee_tie", "unexplained")
+# The float64 referee's verdicts (native/bench/arbitration.h), right first.
+VERDICTS = ("right", "off_triangle", "outside_interval", "missed_inside", "leaked")
 
 
 # ---------------------------------------------------------------- raylab_bench and Embree
