@@ -101,3 +101,21 @@ TEST(HitComparison, ExamplesKeepTheFirstFewOfEachKind) {
   EXPECT_DOUBLE_EQ(json["examples"][0]["raylab"]["double_t"].get<double>(), 1.0) << json;  // re-solved
   EXPECT_TRUE(json["examples"][0]["embree"].is_null()) << json;                            // Embree missed
 }
+
+TEST(HitComparison, TheRefereeSettlesWhatTheClassesLeaveUnexplained) {
+  const TriangleMesh mesh = two_triangles();
+  const Referee referee(mesh);
+  const Arbiter arbiter{&referee, {}};
+  // tmax short of the hit: the miss is right, a hit there is not (tmax is exclusive of nothing beyond it).
+  const std::vector<Ray> short_of{test::ray_of({0.2f, 0.2f, 1}, {0, 0, -1}, 0.0f, 0.9f)};
+  const std::vector<Hit> miss{Hit{}}, beyond{hit(0, 1.0f, 0.2f, 0.2f)};
+  EXPECT_EQ(compare_closest(mesh, short_of, miss, beyond, arbiter).counts[int(Agreement::EmbreeWrong)], 1u);
+  EXPECT_EQ(compare_closest(mesh, short_of, beyond, miss, arbiter).counts[int(Agreement::RaylabWrong)], 1u);
+  EXPECT_EQ(compare_closest(mesh, short_of, miss, beyond).counts[int(Agreement::Unexplained)], 1u);  // no referee
+  // Any hit: occluded by a triangle beyond tmax is wrong, not occluded right.
+  const std::vector<uint8_t> no{0}, yes{1};
+  EXPECT_EQ(compare_any(mesh, short_of, no, yes, miss, beyond, arbiter).counts[int(Agreement::EmbreeWrong)], 1u);
+  // Both right by the referee (tmax within its tie distance of the hit): a referee tie.
+  const std::vector<Ray> at_tmax{test::ray_of({0.2f, 0.2f, 1}, {0, 0, -1}, 0.0f, 0.9999999f)};
+  EXPECT_EQ(compare_closest(mesh, at_tmax, miss, beyond, arbiter).counts[int(Agreement::RefereeTie)], 1u);
+}
