@@ -51,6 +51,16 @@ void for_each_ray(size_t n, int threads, TraversalStats* stats, Query query, std
   run_on_threads(threads, run);
 }
 
+// Runs `run(begin, end)` on for_each_ray's chunks of [0, n) (at most 256 rays each) in parallel, on at
+// most `threads` threads: the uncounted batch queries, which trace a chunk's coherent groups together.
+template <class Run>
+void for_each_ray_range(size_t n, int threads, Run run) {
+  run_on_threads(threads, [&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256),
+                      [&](const tbb::blocked_range<size_t>& r) { run(r.begin(), r.end()); });
+  });
+}
+
 // Closest hits and each ray's status, derived from that ray's own counters as its story would be
 // (ray_status): `closest(ray, hit, own_stats)` is a structure's or a scene's counted query.
 template <class Closest>

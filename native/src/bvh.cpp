@@ -1,5 +1,7 @@
 #include "bvh.h"
 
+#include "bvh_packets.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -212,6 +214,39 @@ std::vector<BoxInfo> Bvh::boxes() const {
 size_t Bvh::memory_bytes() const {
   return nodes4_.capacity() * sizeof(Bvh4Node) + nodes8_.capacity() * sizeof(Bvh8Node) +
          packet_count_ * sizeof(TrianglePacket) + leaf_packets_.capacity() * sizeof(uint32_t);
+}
+
+bool Bvh::coherent(const Ray& first, const Ray& ray, float origin_limit) {
+  const float d = glm::dot(first.direction, ray.direction);
+  const glm::vec3 o = ray.origin - first.origin;
+  return d > 0.0f &&
+         d * d >= kPacketCosine * kPacketCosine * glm::dot(first.direction, first.direction) *
+                      glm::dot(ray.direction, ray.direction) &&
+         glm::dot(o, o) <= origin_limit;
+}
+
+void Bvh::closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const {
+  if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
+  trace_batch<true>(rays, hits.data(), nullptr, counts);
+}
+
+void Bvh::any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts) const {
+  if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
+  trace_batch<false>(rays, nullptr, occluded.data(), counts);
+}
+
+void Bvh::closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const {
+  if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
+  if (rays.empty() || rays.size() > size_t(kPacketSize))
+    throw std::invalid_argument("a packet holds 1 to " + std::to_string(kPacketSize) + " rays");
+  trace_packet<true>(rays.data(), int(rays.size()), hits.data(), nullptr, counts);
+}
+
+void Bvh::any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts) const {
+  if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
+  if (rays.empty() || rays.size() > size_t(kPacketSize))
+    throw std::invalid_argument("a packet holds 1 to " + std::to_string(kPacketSize) + " rays");
+  trace_packet<false>(rays.data(), int(rays.size()), nullptr, occluded.data(), counts);
 }
 
 std::unique_ptr<Structure> build_bvh(MeshPtr mesh, const BuildSettings& settings) {

@@ -48,6 +48,43 @@ class Bvh final : public StructureBase<Bvh> {
     return traverse<false>(ray, nullptr, record);
   }
 
+  // Packets (bvh_packets.h): the uncounted batch queries trace a coherent group of up to kPacketSize
+  // consecutive rays through the tree at once, every ray with its own box and triangle tests (the
+  // single walk's kernels, its own tmax, its own best hit), so every ray gets the hit its own walk
+  // finds, bit for bit; counted queries and stories walk one ray at a time.
+  //
+  // The coherence rule: a group starts at a ray and takes the next rays while each one's direction
+  // lies within about 8 degrees of the first's (d . d0 >= kPacketCosine |d| |d0|) and its origin within
+  // kPacketOriginSpread of the root box's diagonal of the first's origin, up to kPacketSize rays; a
+  // group of fewer than kMinPacket rays (and any ray with a NaN) walks alone. Camera rays (one origin,
+  // neighbouring pixels) and shadow rays from neighbouring hit points to a light form full groups;
+  // random rays form none.
+  static constexpr int kPacketSize = 8;
+  static constexpr int kMinPacket = 2;
+  static constexpr float kPacketCosine = 0.99f;
+  static constexpr float kPacketOriginSpread = 1.0f / 32.0f;
+
+  // What a batch did (for the tests): groups traced as packets and their rays, rays walked alone, and
+  // rays a packet gave up on (walked alone afterwards; see packet_walk).
+  struct PacketCounts {
+    size_t packets = 0, packet_rays = 0, single_rays = 0, evicted = 0;
+  };
+
+  void closest_batch(std::span<const Ray> rays, std::span<Hit> hits) const override {
+    closest_batch(rays, hits, nullptr);
+  }
+  void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded) const override {
+    any_batch(rays, occluded, nullptr);
+  }
+  void closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const;
+  void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts) const;
+  // One packet of 1 to kPacketSize rays, coherent or not (the tests' way into the packet walk).
+  void closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts = nullptr) const;
+  void any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts = nullptr) const;
+  // Whether `ray` may join a group that `first` starts (the rule above); `origin_limit` is
+  // kPacketOriginSpread times the root box's diagonal, squared.
+  static bool coherent(const Ray& first, const Ray& ray, float origin_limit);
+
   // Box ids, as in boxes() and the story: node n is id n (0 the root), leaf k (in packet order)
   // is id node_count + k.
   std::vector<BoxInfo> boxes() const override;
@@ -231,6 +268,26 @@ class Bvh final : public StructureBase<Bvh> {
     if (found) *hit = best;
     return found;
   }
+
+  // The packet walk (bvh_packets.h) and its instances. kSameOrder: a ray whose own order of a node's
+  // children differs from the packet's leaves it (the returned mask) and walks alone.
+  struct PacketEntry {
+    uint32_t ref, count;
+    uint32_t rays;  // the rays that entered this node, bit r for ray r
+    float t_entry[kPacketSize];
+  };
+  template <class Width, bool kClosest, bool kSameOrder>
+  uint32_t packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  template <bool kClosest>
+  uint32_t packet(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  template <bool kClosest, bool kSameOrder>
+  __attribute__((target("avx2"))) uint32_t packet8(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  template <bool kClosest>
+  __attribute__((target("avx2,fma"))) uint32_t packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  template <bool kClosest>
+  void trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts) const;
+  template <bool kClosest>
+  void trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts) const;
 
   uint32_t leaf_id(uint32_t first_packet) const {
     return uint32_t(node_count() + (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) -

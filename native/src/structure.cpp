@@ -44,9 +44,29 @@ std::unique_ptr<Structure> build_structure(MeshPtr mesh, const BuildSettings& se
   return s;
 }
 
+void Structure::closest_batch(std::span<const Ray> rays, std::span<Hit> hits) const {
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit h;
+    closest(rays[i], h);
+    hits[i] = h;
+  }
+}
+
+void Structure::any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded) const {
+  for (size_t i = 0; i < rays.size(); ++i) occluded[i] = any(rays[i]);
+}
+
+// Uncounted, a chunk of rays goes to the structure's batch query (the BVH's packets); counted, every
+// ray walks alone, so that each ray's counters are its own walk's.
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,
                        int threads, std::span<TraversalStats> per_ray) {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
+  if (!stats && per_ray.empty()) {
+    for_each_ray_range(rays.size(), threads, [&](size_t begin, size_t end) {
+      s.closest_batch(rays.subspan(begin, end - begin), hits.subspan(begin, end - begin));
+    });
+    return;
+  }
   for_each_ray(
       rays.size(), threads, stats,
       [&](size_t i, TraversalStats* st) {
@@ -61,6 +81,12 @@ void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<
 void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint8_t> occluded, TraversalStats* stats,
                    int threads, std::span<TraversalStats> per_ray) {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
+  if (!stats && per_ray.empty()) {
+    for_each_ray_range(rays.size(), threads, [&](size_t begin, size_t end) {
+      s.any_batch(rays.subspan(begin, end - begin), occluded.subspan(begin, end - begin));
+    });
+    return;
+  }
   for_each_ray(
       rays.size(), threads, stats,
       [&](size_t i, TraversalStats* st) { occluded[i] = st ? s.any(rays[i], *st) : s.any(rays[i]); }, per_ray);

@@ -100,6 +100,13 @@ class Structure {
   // The whole story of one closest-hit query, recorded by the same traversal code.
   virtual RayStory story(const Ray& ray) const = 0;
 
+  // The uncounted batch queries over a run of rays, on the calling thread (intersect_closest and
+  // intersect_any hand each of for_each_ray's chunks to them when nothing is counted): hits[i] is what
+  // closest(rays[i], ...) finds (a default Hit on a miss), occluded[i] what any(rays[i]) says, bit for
+  // bit. The default is that loop, one ray at a time; the BVH traces coherent groups as packets.
+  virtual void closest_batch(std::span<const Ray> rays, std::span<Hit> hits) const;
+  virtual void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded) const;
+
   virtual std::vector<BoxInfo> boxes() const = 0;
   virtual size_t memory_bytes() const = 0;  // the structure's own memory, without the mesh
 

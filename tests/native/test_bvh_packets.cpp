@@ -1,0 +1,323 @@
+// The BVH's packet walk (bvh_packets.h): every batch answer is the single walk's, bit for bit (t, u, v,
+// triangle, occluded), in both contracts, both widths, closest and any hit, on camera rays, shadow
+// rays, random rays, rays at vertices and edges, rays with varied tmin and tmax, and batches of any
+// length; and coherent batches really take the packet walk.
+#include "support.h"
+
+#include "../../native/src/bvh.h"
+
+#include <cstring>
+
+using namespace raylab;
+using namespace raylab::test;
+
+namespace {
+
+struct Config {
+  Contract contract;
+  TriangleTest test;
+  int width;
+};
+
+std::string name_of(const Config& c) {
+  return std::string(c.contract == Contract::Fast ? "fast" : "exact") + " " + triangle_test_name(c.test) + " width " +
+         std::to_string(c.width);
+}
+
+// Both contracts at both widths this CPU runs, and the exact contract's Möller–Trumbore (the other
+// kind of packet: its rays keep their own order).
+std::vector<Config> configs() {
+  std::vector<Config> out;
+  for (const Contract contract : {Contract::Exact, Contract::Fast}) {
+    out.push_back({contract, TriangleTest::Watertight, 4});
+    if (contract == Contract::Exact ? cpu_has_avx2() : cpu_has_avx2_fma())
+      out.push_back({contract, TriangleTest::Watertight, 8});
+  }
+  out.push_back({Contract::Exact, TriangleTest::MollerTrumbore, 4});
+  if (cpu_has_avx2()) out.push_back({Contract::Exact, TriangleTest::MollerTrumbore, 8});
+  return out;
+}
+
+Bvh bvh_of(const MeshPtr& mesh, const Config& c) {
+  BuildSettings s;
+  s.kind = StructureKind::Bvh;
+  s.contract = c.contract;
+  s.triangle_test = c.test;
+  return Bvh(mesh, s, c.width);
+}
+
+// A pinhole camera's rays, row by row, looking at the mesh from `side` (a unit axis, +-x or +-z),
+// the image a little wider than the mesh.
+std::vector<Ray> camera_rays(const TriangleMesh& mesh, int width, int height, glm::vec3 side) {
+  const Bounds b = mesh.bounds();
+  const glm::vec3 c = b.center(), e = b.extent();
+  const float size = std::max({e.x, e.y, e.z});
+  const glm::vec3 eye = c + 2.5f * size * side;
+  const glm::vec3 forward = -side, up(0.0f, 1.0f, 0.0f);
+  const glm::vec3 right = glm::normalize(glm::cross(forward, up));
+  std::vector<Ray> rays;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float px = (float(x) + 0.5f) / float(width) * 2.0f - 1.0f;
+      const float py = 1.0f - (float(y) + 0.5f) / float(height) * 2.0f;
+      const float aspect = float(width) / float(height);
+      rays.push_back(ray_of(eye, forward + 0.3f * (px * aspect * right + py * up)));
+    }
+  return rays;
+}
+
+// Shadow rays from each hit of `camera` to a point light (tmax 1: the direction reaches the light).
+std::vector<Ray> shadow_rays(const TriangleMesh& mesh, const Structure& s, const std::vector<Ray>& camera) {
+  const Bounds b = mesh.bounds();
+  const glm::vec3 light = b.center() + glm::vec3(0.5f, 2.0f, 1.0f) * b.extent();
+  std::vector<Ray> rays;
+  for (const Ray& ray : camera) {
+    Hit h;
+    if (!s.closest(ray, h)) continue;
+    const glm::vec3 p = ray.at(h.t);
+    rays.push_back(ray_of(p, light - p, 1e-4f, 1.0f));
+  }
+  return rays;
+}
+
+// Rays from one eye through each vertex, each edge's midpoint and each edge's end, in the mesh's order
+// (consecutive vertices lie close together: coherent groups of rays through shared edges and
+// vertices, where the tie-break decides).
+std::vector<Ray> vertex_rays(const TriangleMesh& mesh, size_t count) {
+  const Bounds b = mesh.bounds();
+  const glm::vec3 eye = b.center() + 2.0f * glm::vec3(0.3f, 0.4f, 1.0f) * b.extent();
+  std::vector<Ray> rays;
+  for (uint32_t t = 0; rays.size() < count && t < mesh.triangle_count(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const glm::vec3 a = mesh.vertex(t, k), c = mesh.vertex(t, (k + 1) % 3);
+      rays.push_back(ray_of(eye, a - eye));
+      rays.push_back(ray_of(eye, 0.5f * (a + c) - eye));
+    }
+  rays.resize(std::min(rays.size(), count));
+  return rays;
+}
+
+// Every ray's tmin and tmax varied: some hits lie before tmin or beyond tmax, some exactly at tmax.
+std::vector<Ray> with_varied_interval(const Structure& s, std::vector<Ray> rays) {
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit h;
+    const bool hit = s.closest(rays[i], h);
+    switch (i % 5) {
+      case 0:
+        if (hit) rays[i].tmax = h.t;  // the hit exactly at tmax
+        break;
+      case 1:
+        if (hit) rays[i].tmin = h.t;  // that hit excluded: the next one
+        break;
+      case 2:
+        if (hit) rays[i].tmax = std::nextafter(h.t, 0.0f);
+        break;
+      case 3:
+        rays[i].tmin = 0.3f * float(i % 7);
+        rays[i].tmax = rays[i].tmin + 1.0f + float(i % 3);
+        break;
+      default:
+        break;
+    }
+  }
+  return rays;
+}
+
+bool same_hit(const Hit& a, const Hit& b) { return std::memcmp(&a, &b, sizeof(Hit)) == 0; }
+
+// Every batch query of `s` over `rays` against the single walk, ray by ray; returns the batch's counts.
+Bvh::PacketCounts expect_batch_is_single(const Bvh& s, const std::vector<Ray>& rays, const std::string& what) {
+  std::vector<Hit> single(rays.size()), batch(rays.size(), Hit{1.0f, 2.0f, 3.0f, 4, 5}), api(rays.size());
+  std::vector<uint8_t> single_any(rays.size()), batch_any(rays.size(), 7), api_any(rays.size(), 7);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit h;
+    const bool hit = s.closest(rays[i], h);
+    single[i] = h;
+    EXPECT_EQ(hit, single[i].valid());
+    single_any[i] = s.any(rays[i]);
+  }
+  Bvh::PacketCounts counts, any_counts;
+  s.closest_batch(rays, batch, &counts);
+  s.any_batch(rays, batch_any, &any_counts);
+  EXPECT_EQ(counts.packet_rays + counts.single_rays, rays.size());
+  EXPECT_EQ(any_counts.packet_rays + any_counts.single_rays, rays.size());
+  EXPECT_EQ(any_counts.evicted, 0u);  // any hit never needs a ray's own order
+  size_t wrong = 0, wrong_any = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (!same_hit(single[i], batch[i]) && wrong++ < 5)
+      ADD_FAILURE() << what << ": ray " << i << ": single t " << single[i].t << " triangle " << single[i].triangle
+                    << ", batch t " << batch[i].t << " triangle " << batch[i].triangle;
+    if (single_any[i] != batch_any[i] && wrong_any++ < 5)
+      ADD_FAILURE() << what << ": ray " << i << ": single any " << int(single_any[i]) << ", batch any "
+                    << int(batch_any[i]);
+  }
+  EXPECT_EQ(wrong, 0u) << what;
+  EXPECT_EQ(wrong_any, 0u) << what;
+  // The batch queries of the API (uncounted: the packets), on one thread and on all.
+  for (const int threads : {1, 0}) {
+    intersect_closest(s, rays, api, nullptr, threads);
+    intersect_any(s, rays, api_any, nullptr, threads);
+    size_t differ = 0;
+    for (size_t i = 0; i < rays.size(); ++i) differ += !same_hit(single[i], api[i]) || single_any[i] != api_any[i];
+    EXPECT_EQ(differ, 0u) << what << ": intersect_closest and intersect_any on " << threads << " threads";
+  }
+  return counts;
+}
+
+// The packet walk itself on consecutive groups of `group` rays, whatever their coherence.
+void expect_packets_are_single(const Bvh& s, const std::vector<Ray>& rays, int group, const std::string& what) {
+  for (size_t i = 0; i < rays.size(); i += size_t(group)) {
+    const size_t n = std::min(size_t(group), rays.size() - i);
+    const std::span<const Ray> packet(&rays[i], n);
+    Hit hits[Bvh::kPacketSize];
+    uint8_t occluded[Bvh::kPacketSize];
+    Bvh::PacketCounts counts;
+    s.closest_packet(packet, std::span<Hit>(hits, n), &counts);
+    s.any_packet(packet, std::span<uint8_t>(occluded, n));
+    ASSERT_EQ(counts.packets, 1u);
+    ASSERT_EQ(counts.packet_rays, n);
+    for (size_t r = 0; r < n; ++r) {
+      Hit h;
+      s.closest(rays[i + r], h);
+      ASSERT_TRUE(same_hit(h, hits[r])) << what << ": ray " << i + r << ": single t " << h.t << " triangle "
+                                        << h.triangle << ", packet t " << hits[r].t << " triangle "
+                                        << hits[r].triangle;
+      ASSERT_EQ(uint8_t(s.any(rays[i + r])), occluded[r]) << what << ": ray " << i + r;
+    }
+  }
+}
+
+}  // namespace
+
+TEST(BvhPackets, CameraRaysTakeThePacketWalkAndGetTheSingleHits) {
+  for (const char* name : {"bunny.obj", "goathead.obj"}) {
+    const MeshPtr mesh = shipped(name);
+    for (const Config& c : configs()) {
+      const Bvh s = bvh_of(mesh, c);
+      for (const glm::vec3 side : {glm::vec3(0, 0, 1), glm::vec3(-1, 0, 0)}) {
+        const std::vector<Ray> rays = camera_rays(*mesh, 96, 72, side);
+        const std::string what = std::string(name) + " camera, " + name_of(c);
+        const Bvh::PacketCounts counts = expect_batch_is_single(s, rays, what);
+        // Neighbouring pixels: nearly every ray in a full packet.
+        EXPECT_GE(counts.packet_rays, rays.size() * 99 / 100) << what;
+        EXPECT_LE(counts.packets, rays.size() / 7) << what;
+        if (c.contract == Contract::Exact && c.test == TriangleTest::Watertight) EXPECT_EQ(counts.evicted, 0u);
+        // Rays that leave a packet for their own order are the exception.
+        EXPECT_LE(counts.evicted, counts.packet_rays / 4) << what;
+      }
+    }
+  }
+}
+
+TEST(BvhPackets, ShadowRaysToAPointLight) {
+  for (const char* name : {"bunny.obj", "goathead.obj"}) {
+    const MeshPtr mesh = shipped(name);
+    for (const Config& c : configs()) {
+      const Bvh s = bvh_of(mesh, c);
+      const std::vector<Ray> rays = shadow_rays(*mesh, s, camera_rays(*mesh, 160, 120, glm::vec3(0, 0, 1)));
+      ASSERT_GT(rays.size(), 1000u);
+      const std::string what = std::string(name) + " shadow, " + name_of(c);
+      const Bvh::PacketCounts counts = expect_batch_is_single(s, rays, what);
+      EXPECT_GE(counts.packet_rays, rays.size() / 2) << what;
+    }
+  }
+}
+
+TEST(BvhPackets, RaysThroughVerticesAndEdges) {
+  const MeshPtr mesh = shipped("bunny.obj");
+  const std::vector<Ray> rays = vertex_rays(*mesh, 6000);
+  for (const Config& c : configs()) {
+    const Bvh s = bvh_of(mesh, c);
+    expect_batch_is_single(s, rays, "vertices and edges, " + name_of(c));
+    expect_packets_are_single(s, rays, Bvh::kPacketSize, "vertices and edges as packets, " + name_of(c));
+  }
+}
+
+TEST(BvhPackets, RaysWithVariedIntervals) {
+  const MeshPtr mesh = shipped("bunny.obj");
+  for (const Config& c : configs()) {
+    const Bvh s = bvh_of(mesh, c);
+    const std::vector<Ray> camera = with_varied_interval(s, camera_rays(*mesh, 64, 48, glm::vec3(0, 0, 1)));
+    expect_batch_is_single(s, camera, "camera, varied intervals, " + name_of(c));
+    // Packets of rays whose intervals differ: each ray's own tmin and tmax in every test.
+    expect_packets_are_single(s, camera, Bvh::kPacketSize, "camera packets, varied intervals, " + name_of(c));
+    const std::vector<Ray> edges = with_varied_interval(s, vertex_rays(*mesh, 3000));
+    expect_packets_are_single(s, edges, Bvh::kPacketSize, "vertex packets, varied intervals, " + name_of(c));
+  }
+}
+
+TEST(BvhPackets, IncoherentRaysWalkAloneAndForcedPacketsStillAgree) {
+  const MeshPtr mesh = shipped("bunny.obj");
+  std::vector<Ray> rays = random_rays(*mesh, 4000, 11);
+  for (size_t i = 0; i < rays.size(); i += 3) rays[i].tmax = 0.5f + float(i % 7);
+  for (const Config& c : configs()) {
+    const Bvh s = bvh_of(mesh, c);
+    const Bvh::PacketCounts counts = expect_batch_is_single(s, rays, "random, " + name_of(c));
+    EXPECT_LE(counts.packet_rays, rays.size() / 50) << name_of(c);  // random rays form no groups
+    // Forced into packets of every size: random directions, half through a vertex.
+    for (const int group : {2, 5, Bvh::kPacketSize})
+      expect_packets_are_single(s, rays, group, "random as packets of " + std::to_string(group) + ", " + name_of(c));
+  }
+}
+
+TEST(BvhPackets, MixedBatchesOfAnyLength) {
+  const MeshPtr mesh = shipped("goathead.obj");
+  const std::vector<Ray> camera = camera_rays(*mesh, 40, 30, glm::vec3(0, 0, 1));
+  const std::vector<Ray> random = random_rays(*mesh, 600, 5);
+  // Coherent runs broken by random rays at irregular places.
+  std::vector<Ray> mixed;
+  for (size_t i = 0, j = 0; i < camera.size(); ++i) {
+    mixed.push_back(camera[i]);
+    if (i % 13 == 5 || i % 29 == 0) mixed.push_back(random[j++ % random.size()]);
+  }
+  for (const Config& c : configs()) {
+    const Bvh s = bvh_of(mesh, c);
+    const Bvh::PacketCounts counts = expect_batch_is_single(s, mixed, "mixed, " + name_of(c));
+    EXPECT_GT(counts.packets, 0u);
+    EXPECT_GT(counts.single_rays, 0u);
+    for (const size_t length : {size_t(1), size_t(2), size_t(3), size_t(7), size_t(9), size_t(257)}) {
+      const std::vector<Ray> part(mixed.begin() + 100, mixed.begin() + 100 + std::ptrdiff_t(length));
+      const Bvh::PacketCounts part_counts = expect_batch_is_single(s, part, "length " + std::to_string(length));
+      if (length == 1) EXPECT_EQ(part_counts.packets, 0u);
+    }
+  }
+}
+
+TEST(BvhPackets, EdgeCases) {
+  // An empty mesh, a single triangle, and rays that no packet takes (a NaN, a zero direction).
+  for (const Config& c : configs()) {
+    const MeshPtr empty = mesh_of({}, {});
+    const Bvh none = bvh_of(empty, c);
+    const std::vector<Ray> rays = camera_rays(*mesh_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}}), 8, 6,
+                                              glm::vec3(0, 0, 1));
+    expect_batch_is_single(none, rays, "empty mesh, " + name_of(c));
+    const MeshPtr one = mesh_of({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}});
+    const Bvh s = bvh_of(one, c);
+    std::vector<Ray> odd = rays;
+    odd[3].direction = glm::vec3(std::nanf(""), 0.0f, -1.0f);
+    odd[4].direction = glm::vec3(0.0f);
+    odd[5].origin.x = std::nanf("");
+    odd[9].tmin = odd[9].tmax = 2.5f;
+    expect_batch_is_single(s, odd, "one triangle, " + name_of(c));
+    expect_packets_are_single(s, odd, Bvh::kPacketSize, "one triangle as packets, " + name_of(c));
+  }
+}
+
+TEST(BvhPackets, CountedQueriesWalkOneRayAtATime) {
+  // Counted, a batch's counters are the sum of the single walks' (the packets never count).
+  const MeshPtr mesh = shipped("bunny.obj");
+  BuildSettings settings;
+  const auto s = build_structure(mesh, settings);
+  const std::vector<Ray> rays = camera_rays(*mesh, 48, 36, glm::vec3(0, 0, 1));
+  TraversalStats sum, batch;
+  for (const Ray& ray : rays) {
+    Hit h;
+    s->closest(ray, h, sum);
+  }
+  std::vector<Hit> hits(rays.size());
+  intersect_closest(*s, rays, hits, &batch, 1);
+  EXPECT_EQ(batch.rays, sum.rays);
+  EXPECT_EQ(batch.nodes_visited, sum.nodes_visited);
+  EXPECT_EQ(batch.box_tests, sum.box_tests);
+  EXPECT_EQ(batch.triangle_tests, sum.triangle_tests);
+}
