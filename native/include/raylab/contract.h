@@ -4,7 +4,8 @@
 // exactness costs (README "The price of exactness").
 #pragma once
 
-#include <stdexcept>
+#include "raylab/named_table.h"
+
 #include <string>
 
 namespace raylab {
@@ -29,20 +30,11 @@ inline constexpr ContractInfo kContracts[] = {
      "with fused multiply-adds, unpadded; faster, and wrong on some rays through edges and vertices"},
 };
 
-inline const char* contract_name(Contract contract) {
-  for (const ContractInfo& info : kContracts)
-    if (info.contract == contract) return info.name;
-  return "?";
-}
+inline const char* contract_name(Contract contract) { return name_in(kContracts, &ContractInfo::contract, contract); }
 
 // Throws std::invalid_argument listing the known names.
 inline Contract contract_from_name(const std::string& name) {
-  std::string names;
-  for (const ContractInfo& info : kContracts) {
-    if (name == info.name) return info.contract;
-    names += (names.empty() ? "" : " or ") + std::string(info.name);
-  }
-  throw std::invalid_argument("unknown contract '" + name + "': expected " + names);
+  return value_in(kContracts, &ContractInfo::contract, name, "contract");
 }
 
 }  // namespace raylab

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "raylab/geometry.h"
+#include "raylab/named_table.h"
 
 #include <immintrin.h>
 
@@ -35,19 +36,12 @@ inline constexpr TriangleTestInfo kTriangleTests[] = {
 };
 
 inline const char* triangle_test_name(TriangleTest test) {
-  for (const TriangleTestInfo& info : kTriangleTests)
-    if (info.test == test) return info.name;
-  return "?";
+  return name_in(kTriangleTests, &TriangleTestInfo::test, test);
 }
 
 // Throws std::invalid_argument listing the known names.
 inline TriangleTest triangle_test_from_name(const std::string& name) {
-  std::string names;
-  for (const TriangleTestInfo& info : kTriangleTests) {
-    if (name == info.name) return info.test;
-    names += (names.empty() ? "" : " or ") + std::string(info.name);
-  }
-  throw std::invalid_argument("unknown triangle_test '" + name + "': expected " + names);
+  return value_in(kTriangleTests, &TriangleTestInfo::test, name, "triangle_test");
 }
 
 // The per-ray part of the watertight test: the shear that maps the ray onto the +z axis, in float
