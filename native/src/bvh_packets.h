@@ -21,44 +21,202 @@
 
 #include "bvh.h"
 
+#include <cstring>
 #include <new>
 
 namespace raylab {
 
-// Traces rays[0..n) (1 <= n <= kPacketSize); writes hits[r] (closest: the best hit, set only when
-// found) and out[r] (found / occluded) for every ray that stayed in the packet, and returns the mask of
-// those that left it (kSameOrder), which the caller traces alone.
+// The packet's rays in SIMD lanes: lane r holds the constants of ray r's own box test (Box4Ray's and
+// Box8Ray's, or FastBox4Ray's and FastBox8Ray's, from the same BoxRay). One child box is tested
+// against every lane with the operations of the single walk's kernel (intersect_box4, intersect_box8,
+// fast_box4, fast_box8), in the same order with the same operands, so each lane computes bit for bit
+// what that ray's own test computes for that box. The rays that hit a child and their entry distances
+// come out as the stack takes them, with no transposition.
+struct PacketLanes {
+  alignas(32) float a[3][8];  // exact: origin; fast: reciprocal direction
+  alignas(32) float b[3][8];  // exact: reciprocal direction; fast: origin x reciprocal
+  alignas(32) float pad[8];   // exact only
+  alignas(32) float tmin[8];
+};
+
+// Tests the used children of `node` against the lanes of `lanes` (each lane's far limit in `tmax`):
+// writes t_entry[child][lane] and hit_by[child] (the lanes among `lanes` that hit it) and returns the
+// lanes that hit any child. intersect_box8's operations:
+__attribute__((target("avx2"))) inline uint32_t packet_node_exact(const Bvh8Node& node, const PacketLanes& p,
+                                                                  const float* tmax, uint32_t lanes,
+                                                                  float (*t_entry)[8], uint32_t* hit_by) {
+  const __m256 pad = _mm256_load_ps(p.pad), tmin = _mm256_load_ps(p.tmin), limit = _mm256_load_ps(tmax);
+  const __m256 scale = _mm256_set1_ps(kBoxFarScale);
+  uint32_t any = 0;
+  for (int i = 0; i < 8; ++i) {
+    hit_by[i] = 0;
+    if (!node.used(i)) continue;
+    __m256 t_near = tmin;
+    __m256 t_far = _mm256_set1_ps(kInfinity);
+    for (int a = 0; a < 3; ++a) {
+      const __m256 o = _mm256_load_ps(p.a[a]), inv = _mm256_load_ps(p.b[a]);
+      const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(node.lo[a][i]), o), pad), inv);
+      const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_set1_ps(node.hi[a][i]), o), pad), inv);
+      const __m256 near = _mm256_min_ps(t1, t0);
+      const __m256 far = _mm256_max_ps(t0, t1);
+      t_near = _mm256_max_ps(near, t_near);
+      t_far = _mm256_min_ps(far, t_far);
+    }
+    t_far = _mm256_min_ps(_mm256_mul_ps(t_far, scale), limit);
+    _mm256_store_ps(t_entry[i], t_near);
+    hit_by[i] = uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ))) & lanes;
+    any |= hit_by[i];
+  }
+  return any;
+}
+
+// fast_box8's:
+__attribute__((target("avx2,fma"))) inline uint32_t packet_node_fast(const Bvh8Node& node, const PacketLanes& p,
+                                                                     const float* tmax, uint32_t lanes,
+                                                                     float (*t_entry)[8], uint32_t* hit_by) {
+  const __m256 tmin = _mm256_load_ps(p.tmin), limit = _mm256_load_ps(tmax);
+  uint32_t any = 0;
+  for (int i = 0; i < 8; ++i) {
+    hit_by[i] = 0;
+    if (!node.used(i)) continue;
+    __m256 t_near = tmin, t_far = limit;
+    for (int a = 0; a < 3; ++a) {
+      const __m256 rdir = _mm256_load_ps(p.a[a]), org_rdir = _mm256_load_ps(p.b[a]);
+      const __m256 t0 = _mm256_fmsub_ps(_mm256_set1_ps(node.lo[a][i]), rdir, org_rdir);
+      const __m256 t1 = _mm256_fmsub_ps(_mm256_set1_ps(node.hi[a][i]), rdir, org_rdir);
+      t_near = _mm256_max_ps(t_near, _mm256_min_ps(t0, t1));
+      t_far = _mm256_min_ps(t_far, _mm256_max_ps(t0, t1));
+    }
+    _mm256_store_ps(t_entry[i], t_near);
+    hit_by[i] = uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ))) & lanes;
+    any |= hit_by[i];
+  }
+  return any;
+}
+
+// intersect_box4's, on the eight lanes four at a time (SSE):
+inline uint32_t packet_node_exact(const Bvh4Node& node, const PacketLanes& p, const float* tmax, uint32_t lanes,
+                                  float (*t_entry)[8], uint32_t* hit_by) {
+  const __m128 scale = _mm_set1_ps(kBoxFarScale);
+  uint32_t any = 0;
+  for (int i = 0; i < 4; ++i) {
+    hit_by[i] = 0;
+    if (!node.used(i)) continue;
+    for (int h = 0; h < 8; h += 4) {
+      const __m128 pad = _mm_load_ps(p.pad + h);
+      __m128 t_near = _mm_load_ps(p.tmin + h);
+      __m128 t_far = _mm_set1_ps(kInfinity);
+      for (int a = 0; a < 3; ++a) {
+        const __m128 o = _mm_load_ps(p.a[a] + h), inv = _mm_load_ps(p.b[a] + h);
+        const __m128 t0 = _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(_mm_set1_ps(node.lo[a][i]), o), pad), inv);
+        const __m128 t1 = _mm_mul_ps(_mm_add_ps(_mm_sub_ps(_mm_set1_ps(node.hi[a][i]), o), pad), inv);
+        const __m128 near = _mm_min_ps(t1, t0);
+        const __m128 far = _mm_max_ps(t0, t1);
+        t_near = _mm_max_ps(near, t_near);
+        t_far = _mm_min_ps(far, t_far);
+      }
+      t_far = _mm_min_ps(_mm_mul_ps(t_far, scale), _mm_load_ps(tmax + h));
+      _mm_store_ps(t_entry[i] + h, t_near);
+      hit_by[i] |= uint32_t(_mm_movemask_ps(_mm_cmple_ps(t_near, t_far))) << h;
+    }
+    hit_by[i] &= lanes;
+    any |= hit_by[i];
+  }
+  return any;
+}
+
+// fast_box4's:
+inline uint32_t packet_node_fast(const Bvh4Node& node, const PacketLanes& p, const float* tmax, uint32_t lanes,
+                                 float (*t_entry)[8], uint32_t* hit_by) {
+  uint32_t any = 0;
+  for (int i = 0; i < 4; ++i) {
+    hit_by[i] = 0;
+    if (!node.used(i)) continue;
+    for (int h = 0; h < 8; h += 4) {
+      __m128 t_near = _mm_load_ps(p.tmin + h), t_far = _mm_load_ps(tmax + h);
+      for (int a = 0; a < 3; ++a) {
+        const __m128 rdir = _mm_load_ps(p.a[a] + h), org_rdir = _mm_load_ps(p.b[a] + h);
+        const __m128 t0 = _mm_sub_ps(_mm_mul_ps(_mm_set1_ps(node.lo[a][i]), rdir), org_rdir);
+        const __m128 t1 = _mm_sub_ps(_mm_mul_ps(_mm_set1_ps(node.hi[a][i]), rdir), org_rdir);
+        t_near = _mm_max_ps(t_near, _mm_min_ps(t0, t1));
+        t_far = _mm_min_ps(t_far, _mm_max_ps(t0, t1));
+      }
+      _mm_store_ps(t_entry[i] + h, t_near);
+      hit_by[i] |= uint32_t(_mm_movemask_ps(_mm_cmple_ps(t_near, t_far))) << h;
+    }
+    hit_by[i] &= lanes;
+    any |= hit_by[i];
+  }
+  return any;
+}
+
+// The lanes whose entry distance is not beyond their limit: the single walk's `t_entry > best.t`
+// skip, lane-wise (not greater: a NaN limit keeps the lane, as the scalar comparison does).
+inline uint32_t packet_keep(const float* t_entry, const float* limit) {
+  const __m128 lo = _mm_cmpngt_ps(_mm_load_ps(t_entry), _mm_load_ps(limit));
+  const __m128 hi = _mm_cmpngt_ps(_mm_load_ps(t_entry + 4), _mm_load_ps(limit + 4));
+  return uint32_t(_mm_movemask_ps(lo)) | uint32_t(_mm_movemask_ps(hi)) << 4;
+}
+
+// Traces rays[0..n) (1 <= n <= kPacketSize) and writes out[r] (found / occluded) and, closest, hits[r]
+// where found. Returns the rays that left the packet (kSameOrder) and finished alone.
 template <class Width, bool kClosest, bool kSameOrder>
 [[gnu::always_inline]] inline uint32_t Bvh::packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out) const {
   using Node = typename Width::Node;
-  using BoxRayW = typename Width::BoxRayW;
   using TriangleRayW = typename Width::TriangleRayW;
   constexpr int K = kPacketSize;
+  constexpr int W = Node::kWidth;
+  constexpr bool kFast = std::is_same_v<Width, FastSse4> || std::is_same_v<Width, FastAvx8>;
+  static_assert(K == 8);
   const uint32_t all = (1u << n) - 1;
   if (node_count() == 0) {
     for (int r = 0; r < n; ++r) out[r] = 0;
     return 0;
   }
-  // The rays' constants, built in place (the triangle constants refer to themselves: not copyable).
-  alignas(BoxRayW) unsigned char box_storage[K][sizeof(BoxRayW)];
-  alignas(TriangleRayW) unsigned char triangle_storage[K][sizeof(TriangleRayW)];
-  const BoxRayW* boxw[K];
-  const TriangleRayW* triw[K];
+  PacketLanes lanes;
+  alignas(32) float limit[K];  // closest: the best t so far; any: tmax
+  glm::vec3 direction[K];
   Hit best[K];
-  PacketEntry e;
+  alignas(32) PacketEntry e;
   e.ref = 0;
   e.count = 0;
   e.rays = all;
-  for (int r = 0; r < n; ++r) {
-    const glm::vec3 direction = effective_direction(rays[r].direction);
-    boxw[r] = new (box_storage[r]) BoxRayW(BoxRay(rays[r], direction, root_bounds_));
-    triw[r] = new (triangle_storage[r]) TriangleRayW(rays[r], settings_.triangle_test, direction);
-    best[r] = initial_hit(rays[r]);
-    e.t_entry[r] = rays[r].tmin;
+  for (int r = 0; r < K; ++r) {
+    const Ray& ray = rays[r < n ? r : 0];  // unused lanes repeat ray 0, masked out
+    direction[r] = effective_direction(ray.direction);
+    const BoxRay box_ray(ray, direction[r], root_bounds_);
+    if constexpr (kFast) {
+      const FastBoxRay f(box_ray);
+      for (int a = 0; a < 3; ++a) {
+        lanes.a[a][r] = f.rdir[a];
+        lanes.b[a][r] = f.org_rdir[a];
+      }
+      lanes.pad[r] = 0.0f;
+      lanes.tmin[r] = f.tmin;
+    } else {
+      for (int a = 0; a < 3; ++a) {
+        lanes.a[a][r] = box_ray.origin[a];
+        lanes.b[a][r] = box_ray.inv_dir[a];
+      }
+      lanes.pad[r] = box_ray.pad;
+      lanes.tmin[r] = box_ray.tmin;
+    }
+    best[r] = initial_hit(ray);
+    limit[r] = ray.tmax;
+    e.t_entry[r] = ray.tmin;
   }
-  const auto& nodes = wide_nodes<Width>();
+  // Each ray's triangle constants, made when it first reaches a leaf (most rays of a camera miss).
+  alignas(TriangleRayW) unsigned char triangle_storage[K][sizeof(TriangleRayW)];
+  uint32_t ready = 0;
+  const auto triangles_of = [&](int r) -> const TriangleRayW& {
+    if (!((ready >> r) & 1)) {
+      new (triangle_storage[r]) TriangleRayW(rays[r], settings_.triangle_test, direction[r]);
+      ready |= 1u << r;
+    }
+    return *std::launder(reinterpret_cast<const TriangleRayW*>(triangle_storage[r]));
+  };
   uint32_t alive = all, found = 0, left = 0;
-  PacketEntry stack[kStackSize];
+  alignas(32) PacketEntry stack[kStackSize];
   int size = 0;
   bool root = true;  // the root is entered as the single walk enters it, without the skip test
   NoRecord record;
@@ -68,13 +226,8 @@ template <class Width, bool kClosest, bool kSameOrder>
       e = stack[--size];
     }
     uint32_t active = e.rays & alive;
-    if constexpr (kClosest) {
-      if (!root)
-        for (uint32_t a = active; a != 0; a &= a - 1) {
-          const int r = std::countr_zero(a);
-          if (e.t_entry[r] > best[r].t) active &= ~(1u << r);
-        }
-    }
+    if constexpr (kClosest)
+      if (!root) active &= packet_keep(e.t_entry, limit);
     root = false;
     if (active == 0) continue;
     if (e.count != 0) {
@@ -82,8 +235,11 @@ template <class Width, bool kClosest, bool kSameOrder>
       for (uint32_t a = active; a != 0; a &= a - 1) {
         const int r = std::countr_zero(a);
         if constexpr (kClosest) {
-          if (closest_in_leaf<Width>(*triw[r], rays[r], leaf, best[r], record)) found |= 1u << r;
-        } else if (any_in_leaf<Width>(*triw[r], rays[r], leaf, record)) {
+          if (closest_in_leaf<Width>(triangles_of(r), rays[r], leaf, best[r], record)) {
+            found |= 1u << r;
+            limit[r] = best[r].t;
+          }
+        } else if (any_in_leaf<Width>(triangles_of(r), rays[r], leaf, record)) {
           found |= 1u << r;
           alive &= ~(1u << r);
         }
@@ -91,68 +247,105 @@ template <class Width, bool kClosest, bool kSameOrder>
       if (!kClosest && alive == 0) break;
       continue;
     }
-    const Node& node = nodes[e.ref];
-    alignas(32) float t[K][Node::kWidth];
-    uint32_t hit_by[Node::kWidth] = {};  // child i: the rays that hit it
-    int leader = -1;                     // the first ray that hits a child: the packet's order is its own
-    for (uint32_t a = active; a != 0; a &= a - 1) {
-      const int r = std::countr_zero(a);
-      int mask = Width::test(node, *boxw[r], kClosest ? best[r].t : rays[r].tmax, t[r]);
-      if (mask != 0 && leader < 0) leader = r;
-      for (; mask != 0; mask &= mask - 1) hit_by[std::countr_zero(unsigned(mask))] |= 1u << r;
-    }
-    if (leader < 0) continue;
-    // The children hit, in the order they are visited: the leader's order for the closest hit (the
-    // single walk's: nearest first, a tie to the higher index), index order for any hit.
-    int order[Node::kWidth];
+    const Node& node = wide_nodes<Width>()[e.ref];
+    alignas(32) float t[W][8];  // [child][ray]
+    uint32_t hit_by[W];
+    uint32_t any;
+    if constexpr (kFast) any = packet_node_fast(node, lanes, limit, active, t, hit_by);
+    else any = packet_node_exact(node, lanes, limit, active, t, hit_by);
+    if (any == 0) continue;
+    // The children hit, in the order the packet visits them: for the closest hit the first ray's own
+    // order (nearest first, a tie to the higher index, as the single walk's stack pops them); for any
+    // hit the order does not matter.
+    const int leader = std::countr_zero(any);
+    int order[W];
     int k = 0;
-    for (int i = 0; i < Node::kWidth; ++i) {
+    for (int i = 0; i < W; ++i) {
       if (hit_by[i] == 0) continue;
       int j = k++;
       if constexpr (kClosest)
-        for (; j > 0 && t[leader][order[j - 1]] >= t[leader][i]; --j) order[j] = order[j - 1];
+        for (; j > 0 && t[order[j - 1]][leader] >= t[i][leader]; --j) order[j] = order[j - 1];
       order[j] = i;
     }
     if constexpr (kClosest && kSameOrder) {
       if (k > 1)
-        for (uint32_t a = active & ~(1u << leader); a != 0; a &= a - 1) {
+        for (uint32_t a = any & ~(1u << leader); a != 0; a &= a - 1) {
           const int r = std::countr_zero(a);
           int previous = -1;
-          for (int j = 0; j < k; ++j) {
+          bool same = true;
+          for (int j = 0; j < k && same; ++j) {
             const int i = order[j];
             if (!((hit_by[i] >> r) & 1)) continue;
-            if (previous >= 0 && !(t[r][previous] < t[r][i] || (t[r][previous] == t[r][i] && previous > i))) {
-              left |= 1u << r;
-              alive &= ~(1u << r);
-              break;
-            }
+            same = previous < 0 || t[previous][r] < t[i][r] || (t[previous][r] == t[i][r] && previous > i);
             previous = i;
           }
+          if (same) continue;
+          // Its own order: the single walk's stack segment for this node (insertion, farthest at
+          // the bottom), under the entries of the packet's stack it is in.
+          Entry children[W];
+          int count = 0;
+          for (int i = 0; i < W; ++i) {
+            if (!((hit_by[i] >> r) & 1)) continue;
+            const Entry c{node.child[i], node.count[i], t[i][r], 0};
+            int j = count++;
+            for (; j > 0 && children[j - 1].t_entry < c.t_entry; --j) children[j] = children[j - 1];
+            children[j] = c;
+          }
+          if (finish_alone<Width>(rays[r], direction[r], triangles_of(r), stack, size, r, children, count, best[r]))
+            found |= 1u << r;
+          left |= 1u << r;
+          alive &= ~(1u << r);
         }
     }
-    // Pushed farthest first, so that the nearest is popped next.
-    for (int j = k - 1; j >= 0; --j) {
+    for (int j = k - 1; j >= 0; --j) {  // farthest first, so that the nearest is popped next
       const int i = order[j];
       const uint32_t in = hit_by[i] & alive;
       if (in == 0) continue;
       PacketEntry& c = stack[size++];
+      std::memcpy(c.t_entry, t[i], sizeof(c.t_entry));
       c.ref = node.child[i];
       c.count = node.count[i];
       c.rays = in;
-      for (uint32_t a = in; a != 0; a &= a - 1) {
-        const int r = std::countr_zero(a);
-        c.t_entry[r] = t[r][i];
-      }
       prefetch<Width>(Entry{c.ref, c.count, 0.0f, 0});
     }
   }
   for (int r = 0; r < n; ++r) {
-    if ((left >> r) & 1) continue;
     out[r] = (found >> r) & 1;
     if constexpr (kClosest)
       if ((found >> r) & 1) hits[r] = best[r];
   }
   return left;
+}
+
+// The rest of ray r's single walk from where it left the packet: its stack is the packet's entries it
+// is in, bottom to top, then `children` (its hit children of the node it left at, farthest first), and
+// its best hit so far `best`. The single walk's loop (traverse_wide), unrecorded.
+template <class Width>
+[[gnu::always_inline]] inline bool Bvh::finish_alone(const Ray& ray, const glm::vec3& direction,
+                                                     const typename Width::TriangleRayW& triw,
+                                                     const PacketEntry* packet_stack, int packet_size, int r,
+                                                     const Entry* children, int count, Hit& best) const {
+  Entry stack[kStackSize];
+  int size = 0;
+  for (int j = 0; j < packet_size; ++j)
+    if ((packet_stack[j].rays >> r) & 1)
+      stack[size++] = {packet_stack[j].ref, packet_stack[j].count, packet_stack[j].t_entry[r], 0};
+  for (int j = 0; j < count; ++j) stack[size++] = children[j];
+  const typename Width::BoxRayW boxw(BoxRay(ray, direction, root_bounds_));
+  NoRecord record;
+  bool found = false;
+  while (size > 0) {
+    Entry e = stack[--size];
+    for (;;) {
+      if (e.t_entry > best.t) break;
+      if (e.count != 0) {
+        found |= closest_in_leaf<Width>(triw, ray, e, best, record);
+        break;
+      }
+      if (!visit_children<Width, true>(e, boxw, best.t, record, stack, size)) break;
+    }
+  }
+  return found;
 }
 
 template <bool kClosest, bool kSameOrder>
@@ -161,8 +354,7 @@ __attribute__((target("avx2"))) uint32_t Bvh::packet8(const Ray* rays, int n, Hi
 }
 
 template <bool kClosest>
-__attribute__((target("avx2,fma"))) uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits,
-                                                               uint8_t* out) const {
+__attribute__((target("avx2,fma"))) uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out) const {
   return packet_walk<FastAvx8, kClosest, true>(rays, n, hits, out);
 }
 
@@ -181,44 +373,33 @@ uint32_t Bvh::packet(const Ray* rays, int n, Hit* hits, uint8_t* out) const {
   return packet_walk<Sse4, kClosest, false>(rays, n, hits, out);
 }
 
-// One packet and the rays that left it, each alone; hits[r] is a default Hit on a miss.
+// One packet; hits[r] is a default Hit on a miss.
 template <bool kClosest>
 void Bvh::trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts) const {
   Hit packet_hits[kPacketSize];
   uint8_t found[kPacketSize];
-  uint32_t left = packet<kClosest>(rays, n, packet_hits, found);
+  const uint32_t left = packet<kClosest>(rays, n, packet_hits, found);
   if (counts) {
     ++counts->packets;
     counts->packet_rays += size_t(n);
     counts->evicted += size_t(std::popcount(left));
   }
   for (int r = 0; r < n; ++r) {
-    if ((left >> r) & 1) {
-      if constexpr (kClosest) {
-        Hit h;
-        closest(rays[r], h);
-        hits[r] = h;
-      } else {
-        out[r] = any(rays[r]);
-      }
-    } else if constexpr (kClosest) {
-      hits[r] = found[r] ? packet_hits[r] : Hit{};
-    } else {
-      out[r] = found[r];
-    }
+    if constexpr (kClosest) hits[r] = found[r] ? packet_hits[r] : Hit{};
+    else out[r] = found[r];
   }
 }
 
 // A run of rays: each coherent group (bvh.h) as a packet, the other rays alone.
 template <bool kClosest>
 void Bvh::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts) const {
-  const float spread = kPacketOriginSpread * glm::length(root_bounds_.empty() ? glm::vec3(0.0f)
-                                                                               : root_bounds_.hi - root_bounds_.lo);
+  const float spread =
+      kPacketOriginSpread * glm::length(root_bounds_.empty() ? glm::vec3(0.0f) : root_bounds_.hi - root_bounds_.lo);
   const float origin_limit = spread * spread;
   for (size_t i = 0; i < rays.size();) {
     size_t n = 1;
     while (n < size_t(kPacketSize) && i + n < rays.size() && coherent(rays[i], rays[i + n], origin_limit)) ++n;
-    if (n >= size_t(kMinPacket) && coherent(rays[i], rays[i], origin_limit)) {
+    if (n >= size_t(kMinPacket) && (!kClosest || closest_packets()) && coherent(rays[i], rays[i], origin_limit)) {
       trace_packet<kClosest>(&rays[i], int(n), kClosest ? &hits[i] : nullptr, kClosest ? nullptr : &out[i], counts);
       i += n;
       continue;
