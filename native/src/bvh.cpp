@@ -227,6 +227,11 @@ bool Bvh::coherent(const Ray& first, const Ray& ray, float origin_limit) {
 
 void Bvh::closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
+  if (!closest_packets()) {  // one ray at a time, with no coherence tests
+    Structure::closest_batch(rays, hits);
+    if (counts) counts->single_rays += rays.size();
+    return;
+  }
   trace_batch<true>(rays, hits.data(), nullptr, counts);
 }
 

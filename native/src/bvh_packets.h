@@ -399,7 +399,7 @@ void Bvh::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, Packet
   for (size_t i = 0; i < rays.size();) {
     size_t n = 1;
     while (n < size_t(kPacketSize) && i + n < rays.size() && coherent(rays[i], rays[i + n], origin_limit)) ++n;
-    if (n >= size_t(kMinPacket) && (!kClosest || closest_packets()) && coherent(rays[i], rays[i], origin_limit)) {
+    if (n >= size_t(kMinPacket) && coherent(rays[i], rays[i], origin_limit)) {
       trace_packet<kClosest>(&rays[i], int(n), kClosest ? &hits[i] : nullptr, kClosest ? nullptr : &out[i], counts);
       i += n;
       continue;
