@@ -88,6 +88,22 @@ std::optional<std::pair<int, int>> parse_size(const std::string& text) {
   return std::pair{w, h};
 }
 
+// A command-line check by the core's own parser: `parse` throws with the core's message for a name it
+// does not know.
+template <class Parse>
+CLI::Validator core_name(Parse parse, const char* label) {
+  return CLI::Validator(
+      [parse](std::string& name) {
+        try {
+          parse(name);
+          return std::string();
+        } catch (const std::exception& e) {
+          return std::string(e.what());
+        }
+      },
+      label);
+}
+
 void add_options(CLI::App& app, Options& o) {
   app.option_defaults()->always_capture_default();
   const CLI::Range positive(1, std::numeric_limits<int>::max());
@@ -114,34 +130,15 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--build-reps", o.build_reps, "timed builds of each structure")->check(positive);
   app.add_option("--rep-seconds", o.rep_seconds, "about how long one repetition traces");
   app.add_option("--threads", o.threads, "thread counts, comma-separated")->delimiter(',')->check(positive);
-  // The core knows the structures' names: a name it rejects is rejected here, before any work.
-  const CLI::Validator structure_name(
-      [](std::string& name) {
-        try {
-          structure_kind_from_name(name);
-          return std::string();
-        } catch (const std::exception& e) {
-          return std::string(e.what());
-        }
-      },
-      "STRUCTURE");
+  // The core knows the structures' and contracts' names: a name it rejects is rejected here, before any work.
   app.add_option("--structures", o.structures, "raylab's structures, comma-separated")
       ->delimiter(',')
-      ->check(structure_name);
+      ->check(core_name([](const std::string& name) { structure_kind_from_name(name); }, "STRUCTURE"));
   app.add_option("--contracts", o.contracts,
                  "the contracts of the structures that take one (exact, fast), comma-separated; a fast one is "
                  "named <structure>_fast")
       ->delimiter(',')
-      ->check(CLI::Validator(
-          [](std::string& name) {
-            try {
-              contract_from_name(name);
-              return std::string();
-            } catch (const std::exception& e) {
-              return std::string(e.what());
-            }
-          },
-          "CONTRACT"));
+      ->check(core_name([](const std::string& name) { contract_from_name(name); }, "CONTRACT"));
   app.add_option("--embree", o.embree_qualities, "Embree's build qualities, comma-separated")
       ->delimiter(',')
       ->check(CLI::IsMember(kEmbreeQualities));

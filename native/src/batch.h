@@ -14,6 +14,16 @@
 
 namespace raylab {
 
+// The rays of one TBB task: batches are split into chunks of at most this many.
+inline constexpr size_t kRayChunk = 256;
+
+// Runs `run(begin, end)` on the chunks of [0, n) in parallel, on the calling thread's arena.
+template <class Run>
+void parallel_chunks(size_t n, Run run) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, kRayChunk),
+                    [&](const tbb::blocked_range<size_t>& r) { run(r.begin(), r.end()); });
+}
+
 // Runs `query(i, stats_or_null)` for every ray index in parallel (TBB), on at most `threads` threads
 // (thread_count's rule, as the renderer's RenderSettings::threads). With `stats`, each thread counts
 // into its own TraversalStats and the totals are added to *stats at the end. With `per_ray` (one per ray, or
@@ -25,8 +35,8 @@ void for_each_ray(size_t n, int threads, TraversalStats* stats, Query query, std
   if (!per_ray.empty() && per_ray.size() != n) throw std::invalid_argument("per_ray and rays differ in length");
   const auto run = [&] {
     if (!per_ray.empty()) {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i) {
+      parallel_chunks(n, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i != end; ++i) {
           per_ray[i] = TraversalStats{};
           query(i, &per_ray[i]);
         }
@@ -36,29 +46,26 @@ void for_each_ray(size_t n, int threads, TraversalStats* stats, Query query, std
       return;
     }
     if (!stats) {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i) query(i, nullptr);
+      parallel_chunks(n, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i != end; ++i) query(i, nullptr);
       });
       return;
     }
     tbb::combinable<TraversalStats> local;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
+    parallel_chunks(n, [&](size_t begin, size_t end) {
       TraversalStats& s = local.local();
-      for (size_t i = r.begin(); i != r.end(); ++i) query(i, &s);
+      for (size_t i = begin; i != end; ++i) query(i, &s);
     });
     local.combine_each([&](const TraversalStats& s) { *stats += s; });
   };
   run_on_threads(threads, run);
 }
 
-// Runs `run(begin, end)` on for_each_ray's chunks of [0, n) (at most 256 rays each) in parallel, on at
-// most `threads` threads: the uncounted batch queries, which trace a chunk's coherent groups together.
+// Runs `run(begin, end)` on for_each_ray's chunks of [0, n) in parallel, on at most `threads` threads:
+// the uncounted batch queries, which trace a chunk's coherent groups together.
 template <class Run>
 void for_each_ray_range(size_t n, int threads, Run run) {
-  run_on_threads(threads, [&] {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256),
-                      [&](const tbb::blocked_range<size_t>& r) { run(r.begin(), r.end()); });
-  });
+  run_on_threads(threads, [&] { parallel_chunks(n, run); });
 }
 
 // Closest hits and each ray's status, derived from that ray's own counters as its story would be

@@ -69,10 +69,9 @@ void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<
   }
   for_each_ray(
       rays.size(), threads, stats,
-      [&](size_t i, TraversalStats* st) {
+      [&](size_t i, TraversalStats* st) {  // counted: st is never null here
         Hit h;
-        if (st) s.closest(rays[i], h, *st);
-        else s.closest(rays[i], h);
+        s.closest(rays[i], h, *st);
         hits[i] = h;
       },
       per_ray);
@@ -88,8 +87,8 @@ void intersect_any(const Structure& s, std::span<const Ray> rays, std::span<uint
     return;
   }
   for_each_ray(
-      rays.size(), threads, stats,
-      [&](size_t i, TraversalStats* st) { occluded[i] = st ? s.any(rays[i], *st) : s.any(rays[i]); }, per_ray);
+      rays.size(), threads, stats, [&](size_t i, TraversalStats* st) { occluded[i] = s.any(rays[i], *st); },
+      per_ray);  // counted: st set
 }
 
 void intersect_with_status(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits,
