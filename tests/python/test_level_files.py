@@ -72,30 +72,25 @@ def test_the_extra_objects_are_read_in_order(tmp_path):
     assert level.objects == [{"name": "Rod", "file": "rod.obj", "size": 1.5, "location": [1, 2, 3]}]
 
 
-def test_kept_off_the_disk_the_levels_are_the_ones_read_last(tmp_path, monkeypatch):
-    """While F12 runs the panels' draws must not touch the files (each file-system call lets go of
-    Python's interpreter lock: reading.keep_off_the_disk): the levels read last are the answer, and
-    an edit is read once the guard lets go."""
+def test_from_memory_the_levels_are_the_ones_read_last(tmp_path, monkeypatch):
+    """The panels' draws ask for the levels from memory and must not touch the files (each file-system
+    call lets go of Python's interpreter lock, see reading.available_levels): the levels read last are
+    the answer, and a read from the disk (the tasks' timer) sees an edit."""
     root = str(tmp_path)
     folder = _level_with_objects(tmp_path, "")
-    busy = {"now": False}
-    levels.reading.keep_off_the_disk(lambda: busy["now"])
-    try:
-        assert [level.title for level in levels.available_levels(root)[0]] == ["Extra"]
-        with open(os.path.join(folder, "level.toml")) as f:
-            text = f.read()
-        with open(os.path.join(folder, "level.toml"), "w") as f:
-            f.write(text.replace('title = "Extra"', 'title = "Edited"'))
-        os.utime(os.path.join(folder, "level.toml"), (1e9, 1e9))  # another mtime, however coarse the clock
-        busy["now"] = True
+    assert [level.title for level in levels.available_levels(root)[0]] == ["Extra"]
+    with open(os.path.join(folder, "level.toml")) as f:
+        text = f.read()
+    with open(os.path.join(folder, "level.toml"), "w") as f:
+        f.write(text.replace('title = "Extra"', 'title = "Edited"'))
+    os.utime(os.path.join(folder, "level.toml"), (1e9, 1e9))  # another mtime, however coarse the clock
 
-        def no_disk(*_args):
-            raise AssertionError("the disk was read while kept off it")
-        for name in ("listdir", "stat"):
-            monkeypatch.setattr(os, name, no_disk)
-        assert levels.find_level("extra", root).title == "Extra"
-        monkeypatch.undo()
-        busy["now"] = False
-        assert levels.find_level("extra", root).title == "Edited"
-    finally:
-        levels.reading.keep_off_the_disk(None)
+    def no_disk(*_args):
+        raise AssertionError("the disk was read by a draw")
+    for name in ("listdir", "stat"):
+        monkeypatch.setattr(os, name, no_disk)
+    assert levels.find_level("extra", root, from_memory=True).title == "Extra"
+    assert [level.title for level in levels.available_levels(root, from_memory=True)[0]] == ["Extra"]
+    monkeypatch.undo()
+    assert levels.find_level("extra", root).title == "Edited"
+    assert levels.find_level("extra", root, from_memory=True).title == "Edited"

@@ -13,7 +13,7 @@ def current_level(context):
     if st is None:
         return None
     try:
-        return levels.find_level(st["id"])
+        return levels.find_level(st["id"], from_memory=True)  # a draw asks: see available_levels
     except levels.LevelError:
         return None
 
@@ -26,7 +26,7 @@ class _LevelPanel:
 
 def _level_buttons(layout, context, current):
     try:
-        all_levels, errors = levels.available_levels()
+        all_levels, errors = levels.available_levels(from_memory=True)
     except levels.LevelError as error:
         text_fit.label(layout, context, str(error), 'ERROR')
         return

@@ -260,17 +260,6 @@ def levels_root():
 
 _cache = {}  # folder -> (mtimes, Level or LevelError)
 _listings = {}  # root as asked (None: levels_root()) -> (levels, errors), as available_levels last read them
-_disk_busy = None  # see keep_off_the_disk
-
-
-def keep_off_the_disk(busy):
-    """While busy() is true, available_levels answers from what it read last instead of looking at the
-    files (None: always look). The add-on's panels call find_level in every draw, and every file-system
-    call lets go of Python's interpreter lock: while F12 runs, its job thread can then enter or leave the
-    render engine in the middle of a panel's draw, which leaves Blender refusing every operator (the F12
-    lock-up render_engine.py describes). The tasks register this for the render job's time."""
-    global _disk_busy
-    _disk_busy = busy
 
 
 def _mtimes(folder):
@@ -278,10 +267,16 @@ def _mtimes(folder):
                  for n in ("level.toml", "text.md"))
 
 
-def available_levels(root=None):
+def available_levels(root=None, from_memory=False):
     """(levels sorted by order, errors): a broken level is reported, never fatal for the others. A level
-    whose files changed is read again (see keep_off_the_disk for when it is not)."""
-    if _disk_busy is not None and root in _listings and _disk_busy():
+    whose files changed is read again.
+
+    from_memory=True answers with what the last call read (the disk only when nothing was read yet): what
+    a panel's draw asks. Every file-system call lets go of Python's interpreter lock, and a draw that lets
+    go of it lets F12's job thread enter or leave the render engine in the middle of the draw, which leaves
+    Blender refusing every operator (the F12 lock-up render_engine.py describes). The tasks' timer reads
+    the disk twice a second, so an edited level still shows within half a second."""
+    if from_memory and root in _listings:
         levels, errors = _listings[root]
         return list(levels), list(errors)
     asked, root = root, root or levels_root()
@@ -303,8 +298,9 @@ def available_levels(root=None):
     return list(levels), list(errors)
 
 
-def find_level(level_id, root=None):
-    levels, errors = available_levels(root)
+def find_level(level_id, root=None, from_memory=False):
+    """The level named level_id; from_memory as in available_levels."""
+    levels, errors = available_levels(root, from_memory)
     for level in levels:
         if level.id == level_id:
             return level

@@ -10,7 +10,7 @@ from mathutils import Matrix, Vector
 
 from .. import draw
 from ..structure_cache import may_deform
-from .reading import LevelError, find_level, keep_off_the_disk
+from .reading import LevelError, available_levels, find_level
 from .state import STATE_KEY, keep_stamps, level_mesh_object, state
 
 CHECK_INTERVAL = 0.5     # seconds between timer checks (renders and comparisons fire no depsgraph update)
@@ -122,7 +122,7 @@ def task_list(scene):
     st = state(scene)
     if st is None:
         return []
-    level = find_level(st["id"])
+    level = find_level(st["id"], from_memory=True)  # the Tasks panel's draw asks: see available_levels
     return [(task.text, bool(done)) for task, done in zip(level.tasks, st["done"])]
 
 
@@ -154,25 +154,29 @@ def _on_depsgraph_update(scene, _depsgraph):
 
 def _check_timer():
     window = bpy.context.window or next(iter(bpy.context.window_manager.windows), None)
+    _read_levels()
     keep_stamps()
     if window is not None:
         check_tasks(window.scene)
     return CHECK_INTERVAL
 
 
-def _rendering():
-    return bpy.app.is_job_running('RENDER')
+def _read_levels():
+    """Reads the levels' files again, outside any draw: the panels' draws answer from what this read
+    (available_levels' from_memory)."""
+    try:
+        available_levels()
+    except LevelError:
+        pass  # no levels folder: the Levels panel says so
 
 
 def register():
+    _read_levels()
     bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph_update)
     bpy.app.timers.register(_check_timer, first_interval=CHECK_INTERVAL, persistent=True)
-    # The panels' draws read the levels: while F12 runs they must not let go of the interpreter lock.
-    keep_off_the_disk(_rendering)
 
 
 def unregister():
-    keep_off_the_disk(None)
     if bpy.app.timers.is_registered(_check_timer):
         bpy.app.timers.unregister(_check_timer)
     if _on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
