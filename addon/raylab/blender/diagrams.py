@@ -21,7 +21,7 @@ CACHE_PICTURES = 12  # pictures kept in memory (a level shows at most six)
 
 _previews = None
 _pictures = {}       # path -> (H, W, 4) uint8, bottom row first (Blender's order), or the error loading it
-_pending = set()     # paths the next timer tick loads
+_pending = set()     # (path, side) the next timer tick loads and tiles
 _tiles = {}          # path -> (side in pixels, [icon id of each tile, top first])
 
 
@@ -66,26 +66,50 @@ def _tag_redraw():
 
 
 def _load_pending():
-    """Reads the pictures the panel asked for. A timer does it, not the panel's draw, which should leave
-    the file's data alone; the image is only borrowed, removed again at once: the file stays as it was."""
-    for path in sorted(_pending):
-        if len(_pictures) >= CACHE_PICTURES:
-            _pictures.pop(next(iter(_pictures)))
-        try:
-            image = bpy.data.images.load(path, check_existing=False)
-        except RuntimeError as error:
-            _pictures[path] = str(error)
-            continue
-        try:
-            width, height = image.size
-            pixels = np.empty(width * height * 4, np.float32)
-            image.pixels.foreach_get(pixels)
-        finally:
-            bpy.data.images.remove(image)
-        _pictures[path] = (pixels.reshape(height, width, 4) * 255.0 + 0.5).astype(np.uint8)
+    """Reads the pictures the panel asked for and makes their tiles at the size it asked. A timer does it,
+    not the panel's draw: reading a file and numpy's work on a picture let go of Python's interpreter
+    lock, and a draw must not (see levels.available_levels); a draw also should leave the file's data
+    alone: the image is only borrowed, removed again at once, and the file stays as it was."""
+    for path, side in sorted(_pending):
+        if path not in _pictures:
+            _pictures[path] = _read_picture(path)
+            while len(_pictures) > CACHE_PICTURES:
+                _pictures.pop(next(iter(_pictures)))
+        if not isinstance(_pictures[path], str):
+            _make_tiles(path, side)
     _pending.clear()
     _tag_redraw()
     return None
+
+
+def _read_picture(path):
+    """(H, W, 4) uint8, bottom row first, or the error that kept it from loading."""
+    try:
+        image = bpy.data.images.load(path, check_existing=False)
+    except RuntimeError as error:
+        return str(error)
+    try:
+        width, height = image.size
+        pixels = np.empty(width * height * 4, np.float32)
+        image.pixels.foreach_get(pixels)
+    finally:
+        bpy.data.images.remove(image)
+    return (pixels.reshape(height, width, 4) * 255.0 + 0.5).astype(np.uint8)
+
+
+def _make_tiles(path, side):
+    global _previews
+    if _previews is None:
+        _previews = bpy.utils.previews.new()
+    for name in [n for n in _previews.keys() if n.startswith(path + "|")]:
+        del _previews[name]  # the tiles of another width
+    icons = []
+    for k, square in enumerate(tiles(_pictures[path], side)):
+        preview = _previews.new(f"{path}|{side}|{k}")
+        preview.image_size = square.shape[1], square.shape[0]
+        preview.image_pixels_float.foreach_set(square.ravel())
+        icons.append(preview.icon_id)
+    _tiles[path] = (side, icons)
 
 
 def box_weights(size_in, size_out):
@@ -117,14 +141,8 @@ def tiles(picture, side):
 
 def tile_icons(context, path):
     """The icon ids of the diagram's tiles at the panel's current width, or None while it loads, or the
-    error that kept it from loading."""
-    global _previews
+    error that kept it from loading. Called by a draw: it only asks a timer for what is missing."""
     picture = _pictures.get(path)
-    if picture is None:
-        _pending.add(path)
-        if not bpy.app.timers.is_registered(_load_pending):
-            bpy.app.timers.register(_load_pending, first_interval=0.0)
-        return None
     if isinstance(picture, str):
         return picture
     # Always the square's own size, even above the picture's width (a wide sidebar, a large UI scale):
@@ -134,18 +152,10 @@ def tile_icons(context, path):
     made = _tiles.get(path)
     if made is not None and made[0] == side:
         return made[1]
-    if _previews is None:
-        _previews = bpy.utils.previews.new()
-    for name in [n for n in _previews.keys() if n.startswith(path + "|")]:
-        del _previews[name]  # the tiles of another width
-    icons = []
-    for k, square in enumerate(tiles(picture, side)):
-        preview = _previews.new(f"{path}|{side}|{k}")
-        preview.image_size = square.shape[1], square.shape[0]
-        preview.image_pixels_float.foreach_set(square.ravel())
-        icons.append(preview.icon_id)
-    _tiles[path] = (side, icons)
-    return icons
+    _pending.add((path, side))
+    if not bpy.app.timers.is_registered(_load_pending):
+        bpy.app.timers.register(_load_pending, first_interval=0.0)
+    return None if made is None else made[1]  # the tiles of another width until these are made
 
 
 def draw(layout, context, path, caption):
