@@ -72,13 +72,12 @@ def depth_key(settings, depths):
 
 def drawn_depths(scene, view_layer=None):
     """The depths of the boxes the overlay draws (leaves only, if so set) over every shown object whose
-    structure is built, without building any."""
+    structure is built, without building any (a panel's draw asks)."""
     depths = set()
     for obj in structure_cache.target_objects(scene, view_layer):
         entry = structure_cache.cached(obj, scene)
         if entry is not None and entry.structure is not None:
-            boxes = entry.boxes()
-            depths.update(np.unique(boxes["depth"][boxes["leaf"]] if scene.raylab.leaves_only else boxes["depth"]))
+            depths |= entry.leaf_depths if scene.raylab.leaves_only else entry.depths
     return depths
 
 

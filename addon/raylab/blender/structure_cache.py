@@ -49,16 +49,29 @@ class _Mesh:
 
 
 class Entry:
-    """One object's structure in the scene model (or why it has none) and the space its boxes live in."""
+    """One object's structure in the scene model (or why it has none) and the space its boxes live in.
+    What the panels show of its boxes (box_count, depths, leaf_depths) is counted when it is made, as
+    panels' draws must not call the core or numpy on its arrays (either lets go of Python's interpreter
+    lock: levels.available_levels says why that matters)."""
 
-    __slots__ = ("key", "structure", "space", "error", "_boxes")
+    __slots__ = ("key", "structure", "space", "error", "_boxes", "box_count", "depths", "leaf_depths")
 
-    def __init__(self, key, structure, space, error):
+    def __init__(self, key, structure, space, error, counted=None):
         self.key = key              # changes whenever the structure does
         self.structure = structure  # raylab.Structure, or None when `error` says why not
         self.space = space          # 'OBJECT': carry with matrix_world; 'WORLD': already in world space
         self.error = error
         self._boxes = None
+        self.box_count, self.depths, self.leaf_depths = 0, frozenset(), frozenset()
+        if structure is not None:
+            if counted is None:  # `counted`: the same structure's counts, from the entry before a commit
+                boxes = self.boxes()
+                counted = (len(boxes["depth"]), frozenset(np.unique(boxes["depth"]).tolist()),
+                           frozenset(np.unique(boxes["depth"][boxes["leaf"]]).tolist()))
+            self.box_count, self.depths, self.leaf_depths = counted
+
+    def counted(self):
+        return self.box_count, self.depths, self.leaf_depths
 
     def boxes(self):
         if self._boxes is None:
@@ -74,7 +87,7 @@ class _Part:
     """An object's mesh in the raylab.Scene: its mesh id, the key it was added with, why it is not
     traced (its mesh, or its instance's matrix), its entry."""
 
-    __slots__ = ("mesh", "key", "triangle_count", "topology", "error", "instance_error", "entry")
+    __slots__ = ("mesh", "key", "triangle_count", "topology", "error", "instance_error", "entry", "counted")
 
     def __init__(self, mesh, key, triangle_count, topology=None, error=None):
         self.mesh = mesh
@@ -84,6 +97,7 @@ class _Part:
         self.error = error          # the mesh cannot be added (no faces, a NaN vertex)
         self.instance_error = None  # the scene refused its matrix (e.g. scaled to zero)
         self.entry = None
+        self.counted = None         # (key, Entry.counted()) of the last entry with a structure
 
 
 class SceneModel:
@@ -114,14 +128,18 @@ class SceneModel:
         return [f"{name}: {part.error or part.instance_error}" for name, part in asked
                 if part.error or part.instance_error] + ([self.error] if self.error else [])
 
-    def entry(self, name):
+    def entry(self, name, make=True):
+        """The object's Entry, made now if there is none yet and `make` (None then otherwise)."""
         part = self.parts.get(name)
         if part is None:
             return None
-        if part.entry is None:
+        if part.entry is None and make:
             error = part.error or part.instance_error or self.error or (None if self.committed else "not built yet")
             structure = None if error else self.scene.structure(part.mesh)
-            part.entry = Entry(part.key, structure, 'WORLD' if self.world else 'OBJECT', error)
+            counted = part.counted[1] if part.counted is not None and part.counted[0] == part.key else None
+            part.entry = Entry(part.key, structure, 'WORLD' if self.world else 'OBJECT', error, counted)
+            if structure is not None:
+                part.counted = (part.key, part.entry.counted())
         return part.entry
 
     def _update_part(self, obj, mesh, matrix, refit):
@@ -222,6 +240,8 @@ class SceneModel:
         self.stale = self.refits = 0
         self.error = None
         self.committed = True
+        for name in self.parts:  # made here, not when a panel's draw first asks (structure_cache.cached)
+            self.entry(name)
 
 
 def matrix_of(obj):
@@ -304,10 +324,11 @@ def structure_for(obj, settings, depsgraph=None):
 
 
 def cached(obj, scene=None):
-    """The Entry last built for `obj`, without building: None if there is none."""
+    """The Entry last made for `obj`, without building or making one (what a panel's draw may ask): None
+    if there is none."""
     scene = scene or bpy.context.scene
     model = _models.get(scene.name_full)
-    return None if model is None else model.entry(obj.name_full)
+    return None if model is None else model.entry(obj.name_full, make=False)
 
 
 def mark_geometry_changed(depsgraph):

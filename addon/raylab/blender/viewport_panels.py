@@ -150,7 +150,7 @@ def share_text(share):
 
 def structure_text(entry):
     s = entry.structure
-    return (f"{len(entry.boxes()['depth']):,} boxes, {s.memory_bytes / 1024:.0f} KiB, "
+    return (f"{entry.box_count:,} boxes, {s.memory_bytes / 1024:.0f} KiB, "
             f"built in {s.build_seconds * 1000:.1f} ms")
 
 
