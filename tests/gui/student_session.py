@@ -25,6 +25,7 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import draw_lock_watch  # noqa: E402
 import session  # noqa: E402  (puts the checkout's add-on on sys.path)
 from blender_window import call_in_main_window, click_raylab_tab, screenshot, show_sidebar, start_f12, \
     view3d  # noqa: E402
@@ -33,7 +34,9 @@ OUT_DIR = session.out_dir()
 report = {"runs": []}
 STARTED = time.monotonic()
 SESSION = session.Session(os.path.join(OUT_DIR, "student_session.json"), report, indent=1,
-                          finishing=lambda: report.update(seconds=round(time.monotonic() - STARTED, 1)))
+                          finishing=lambda: report.update(seconds=round(time.monotonic() - STARTED, 1),
+                                                          draws_letting_go=draw_lock_watch.found))
+draw_lock_watch.start()
 POLL = 0.25          # seconds between looks while waiting
 SETTLE = 1.2         # a step that should tick nothing: the add-on's timer (every 0.5 s) has looked by then
 TICK_WAIT = 45.0     # a step that should tick: the longest wait for it (a slow machine, a busy main loop)

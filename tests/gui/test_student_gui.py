@@ -16,10 +16,23 @@ ROD_WAYS = ("rod up", "rod down", "rod right", "rod left", "rod away", "rod towa
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def session_report(tmp_path_factory):
     return run_session("student_session.py", "student_session.json", start_blend(tmp_path_factory.mktemp("student")),
                        outputs=("student_bvh_1_leaves_8.png", "student_bvh_1_leaves_1.png"),
-                       extra=["--enable-event-simulate"])["runs"]
+                       extra=["--enable-event-simulate"])
+
+
+@pytest.fixture(scope="module")
+def runs(session_report):
+    return session_report["runs"]
+
+
+def test_no_raylab_draw_lets_go_of_the_interpreter_lock(session_report):
+    """While the student works through every level, F12 included, no raylab panel, header or menu lets go
+    of Python's interpreter lock in the middle of its draw (draw_lock_watch.py): a draw that does lets
+    F12's job thread leave Blender refusing every operator afterwards."""
+    ours = {key: stack for key, stack in session_report["draws_letting_go"].items() if key.startswith("RAYLAB_")}
+    assert not ours, "\n\n".join(f"{key}:\n{stack}" for key, stack in ours.items())
 
 
 def runs_of(runs, level_id):
