@@ -649,9 +649,51 @@ def thin_triangle_box():
     return save(fig, "where_work_goes", "thin_triangles.png")
 
 
+def sah_split_cost(triangles, left, right):
+    """The SAH cost of splitting into `left` and `right` (triangle ids) in 2D, where a box's chance of being
+    entered is its perimeter over the parent's: 1 (the node visit) + sum of P(side) x triangles(side)."""
+    def box(ids):
+        pts = np.vstack([triangles[i] for i in ids])
+        return pts.min(axis=0), pts.max(axis=0)
+
+    def perimeter(lo, hi):
+        return 2.0 * float(np.sum(hi - lo))
+    parent = perimeter(*box(left + right))
+    return 1.0 + sum(perimeter(*box(side)) / parent * len(side) for side in (left, right))
+
+
+def sah_against_median():
+    """One split of a scene with a crowd on one side and a lone triangle far off: the object median puts
+    the crowd in both halves and stretches a box over the empty middle; the SAH cuts off the empty space."""
+    crowd = fan_triangles(blob((-1.3, -0.2), 0.75, 11, 5))
+    far = [np.array([[1.75, 0.75], [2.15, 0.85], [1.95, 1.2]])]
+    tris = crowd + far
+    order = sorted(range(len(tris)), key=lambda i: tris[i].mean(axis=0)[0])
+    half = len(order) // 2
+    splits = {"object median": (order[:half], order[half:])}
+    costs = {k: sah_split_cost(tris, *v) for k, v in splits.items()}
+    best = min(((order[:k], order[k:]) for k in range(1, len(order))), key=lambda lr: sah_split_cost(tris, *lr))
+    splits["SAH"] = best
+    costs["SAH"] = sah_split_cost(tris, *best)
+    leaf_cost = float(len(tris))
+    fig = page.figure(2)
+    lo, hi = square_around(np.vstack(tris), margin=0.08)
+    for tile, name in enumerate(("object median", "SAH")):
+        left, right = splits[name]
+        page.title(fig, tile, f"{name} split:\ncost {costs[name]:.1f} (leaf {leaf_cost:.0f})")
+        ax = page.axes(fig, tile, bottom=0.06, height=0.74)
+        draw_triangles(ax, [tris[i] for i in left], face=SHAPE_FILL, lw=0.8)
+        draw_triangles(ax, [tris[i] for i in right], face=ENTERED, edge="#a63603", lw=0.8)
+        for ids, colour in ((left, DEPTH_COLORS[0]), (right, DEPTH_COLORS[1])):
+            pts = np.vstack([tris[i] for i in ids])
+            draw_box(ax, pts.min(axis=0) - 0.04, pts.max(axis=0) + 0.04, color=colour, lw=2.5)
+        frame(ax, lo, hi, pad=0.05)
+    return save(fig, "why_sah", "sah_against_median.png")
+
+
 DIAGRAMS = [aabb_bounding_box, aabb_ray_cases, quadtree_depths, vertex_rule_vs_sat, separating_axis,
             octree_ray_statuses, bvh_boxes_and_tree, bvh_traversal, race_work_per_ray, leaking_ray,
-            shadow_acne, silhouette_work, grazing_ray, thin_triangle_box]
+            shadow_acne, silhouette_work, grazing_ray, thin_triangle_box, sah_against_median]
 
 if __name__ == "__main__":
     wanted = sys.argv[1:]

@@ -11,7 +11,7 @@ import pytest
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
 sys.path.insert(0, os.path.join(ROOT, "addon"))
-from raylab.blender import compare, probe, properties  # noqa: E402
+from raylab.blender import compare, probe, properties, tree_view  # noqa: E402
 from raylab.blender.experiments import leak  # noqa: E402
 
 LEVELS_DIR = os.path.join(ROOT, "levels")
@@ -40,6 +40,10 @@ CLAIMS = [
     ("levels/bvh_2/text.md", "yellow ones tested triangles", lambda: probe.STATUS_COLORS["missed_triangles"]),
     ("levels/where_methods_fail/text.md", "escaped rays in red", lambda: leak.RAY_COLOR),
     ("levels/where_methods_fail/text.md", "yellow dot", lambda: leak.CROSSING_COLOR),
+    ("levels/why_sah/text.md", "x red", lambda: tree_view.AXIS_COLOURS[0]),
+    ("levels/why_sah/text.md", "y green", lambda: tree_view.AXIS_COLOURS[1]),
+    ("levels/why_sah/text.md", "z blue", lambda: tree_view.AXIS_COLOURS[2]),
+    ("levels/why_sah/text.md", "a leaf in grey", lambda: tree_view.LEAF_LINE),
     ("README.md", "escaped rays are drawn in red", lambda: leak.RAY_COLOR),
     ("README.md", "closed sphere (red)", lambda: leak.RAY_COLOR),
     ("README.md", "yellow dot", lambda: leak.CROSSING_COLOR),

@@ -65,7 +65,7 @@ def same(actual, expected):
 
 
 def test_the_required_levels_exist():
-    assert {"aabb_1", "aabb_2", "octree_1", "octree_2", "bvh_1", "bvh_2", "race", "where_work_goes",
+    assert {"aabb_1", "aabb_2", "octree_1", "octree_2", "bvh_1", "bvh_2", "why_sah", "race", "where_work_goes",
             "where_methods_fail", "sandbox"} <= set(LEVEL_IDS)
     found, errors = levels.available_levels()
     assert errors == []

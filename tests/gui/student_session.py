@@ -46,7 +46,7 @@ WATCHDOG_SECONDS = 240
 ROD_MOVE = 2.0       # metres, as the rod task says
 
 import raylab  # noqa: E402
-from raylab.blender import compare, heat_maps, levels, probe, structure_cache  # noqa: E402
+from raylab.blender import compare, heat_maps, levels, probe, structure_cache, tree_view  # noqa: E402
 
 
 # --- what the student sees and does -------------------------------------------------------------------
@@ -267,6 +267,63 @@ def bvh_1(run):
     yield from step(run, f"Level mesh: {name}", 4)
 
 
+def why_sah(run):
+    scene = yield from open_level("why_sah")
+    tree = scene.raylab_tree
+    tree.enabled = True
+    yield from step(run, "Tree view on", 1)
+    yield from click_in_tree(run, scene)
+    for _ in range(64):  # from the root down, the costliest child until a leaf
+        if tree.picked_costliest:
+            break
+        assert press(bpy.ops.raylab.tree_walk, step='COSTLIEST') == {'FINISHED'}
+        yield POLL
+    yield from step(run, "Costliest, down to a leaf", 2, node=lambda: tree.node)
+    assert press(bpy.ops.raylab.tree_walk, step='PARENT') == {'FINISHED'}
+    yield from step(run, "Up to its parent: the Split Explorer shows its splits", 3, node=lambda: tree.node)
+    yield 1.0  # the view drawn with the picked node
+    viewport_shot(run, "student_why_sah_tree.png")
+    run["picked_box_pixels"] = picked_box_pixels(scene)
+    run["tree_frame"] = list(tree_view.frames(view3d()[2])[0])
+    scene.raylab.builder = "median"
+    yield from step(run, "Builder: Object median", 4, cost_over_sah=lambda: tree.cost_over_sah)
+
+
+def click_in_tree(run, scene):
+    """Clicks the root's first child in the tree view, then presses Up with the pointer over the tree: writes
+    down which node each picked."""
+    yield from wait_until(lambda: view3d()[2].as_pointer() in tree_view._shown, TICK_WAIT)
+    window, _, region, _ = view3d()
+    _, picture, xs, ys = tree_view._shown[region.as_pointer()]
+    aimed = int(picture["nodes"][1])  # depth-first: the root's first child
+    x, y = region.x + int(round(xs[1])), region.y + int(round(ys[1]))
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    window.event_simulate(type='LEFTMOUSE', value='PRESS', x=x, y=y)
+    window.event_simulate(type='LEFTMOUSE', value='RELEASE', x=x, y=y)
+    yield 0.5
+    run["click"] = dict(aimed=aimed, picked=scene.raylab_tree.node)
+    window.event_simulate(type='UP_ARROW', value='PRESS', x=x, y=y)
+    window.event_simulate(type='UP_ARROW', value='RELEASE', x=x, y=y)
+    yield 0.5
+    run["key_up"] = dict(parent=int(tree_view._last_read[scene.name_full].parent[aimed]),
+                         picked=scene.raylab_tree.node)
+    window.event_simulate(type='MOUSEMOVE', value='NOTHING', x=region.x + region.width // 2,
+                          y=region.y + region.height - 80)  # parked above the tree
+
+
+def picked_box_pixels(scene):
+    """Where the picked node's box corners fall in the 3D view's region, in pixels (None: off screen)."""
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+    _, area, region, _ = view3d()
+    tree = tree_view._last_read[scene.name_full]
+    node = tree.node(scene.raylab_tree.node)
+    lo, hi = tree.lo[node], tree.hi[node]
+    corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)] for c in range(8)], np.float64)
+    world = structure_cache.transform_points(structure_cache.matrix_of(levels.level_mesh_object(scene)), corners)
+    pixels = [location_3d_to_region_2d(region, area.spaces.active.region_3d, Vector(p)) for p in world]
+    return [None if p is None else [p.x, p.y] for p in pixels]
+
+
 def bvh_2(run):
     scene = yield from open_level("bvh_2")
     aim_ray(scene, ["missed_nodes", "missed_triangles"])
@@ -361,7 +418,8 @@ ROD_WAYS = {"up": (0, 0, 1), "down": (0, 0, -1), "right": (1, 0, 0), "left": (-1
             "toward": (0, -1, 0)}
 # BVH 1's screenshots come before the first F12, whose render window would cover part of the viewport.
 RUNS = [("aabb_1", "goat", aabb_1), ("octree_1", "sliders", octree_1), ("octree_2", "ray", octree_2),
-        ("bvh_1", "own mesh", bvh_1), ("aabb_2", "goat", aabb_2_goat), ("aabb_2", "ray", aabb_2_ray),
+        ("bvh_1", "own mesh", bvh_1), ("why_sah", "costliest path, median", why_sah),
+        ("aabb_2", "goat", aabb_2_goat), ("aabb_2", "ray", aabb_2_ray),
         ("bvh_2", "ray", bvh_2), ("race", "goat then dragon", race)]
 RUNS += [("where_work_goes", f"rod {way}", where_work_goes(axis)) for way, axis in ROD_WAYS.items()]
 RUNS += [("where_methods_fail", "renders", where_methods_fail), ("sandbox", "own mesh", sandbox_own),

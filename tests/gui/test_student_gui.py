@@ -5,9 +5,10 @@ showed after each step.
 """
 import os
 
+import numpy as np
 import pytest
 
-from gui_util import OUT, ROOT, Region, changed, load_rgb, run_session, start_blend
+from gui_util import OUT, ROOT, Region, changed, dilate, load_rgb, run_session, start_blend
 
 LEVELS_DIR = os.path.join(ROOT, "levels")
 LEVEL_IDS = sorted(d for d in os.listdir(LEVELS_DIR) if os.path.exists(os.path.join(LEVELS_DIR, d, "level.toml")))
@@ -85,6 +86,32 @@ def test_bvh_1_s_leaf_size_task_changes_the_boxes_drawn(runs):
     # drawn in the middle.
     middle = (slice(60, before.shape[0] - 20), slice(0, int(before.shape[1] * 0.7)))
     assert changed(before[middle], after[middle], threshold=0.1).mean() > 0.02
+
+
+def test_the_tree_view_draws_the_tree_and_the_picked_node_s_box(runs):
+    """Why SAH?: the tree is drawn in its frame over the view (node squares in the heat colours on the dark
+    frame), and the picked node's box is drawn white where its corners fall in the view."""
+    (run,) = runs_of(runs, "why_sah")
+    name = "student_why_sah_tree.png"
+    region = Region(run["shots"][name]["region"], run["shots"][name]["window_height"])
+    image = region.crop(load_rgb(os.path.join(OUT, name)))
+    x, y, width, height = run["tree_frame"]
+    top, left = region.row_col(x, y + height)
+    frame = image[top + 24:top + height, left:left + width]  # below the frame's title
+    assert (frame.max(axis=-1) < 0.15).mean() > 0.5, "the tree's dark frame"
+    assert (frame.max(axis=-1) - frame.min(axis=-1) > 0.3).sum() > 20, "node squares in colour"
+    white = dilate(np.all(image > 0.9, axis=-1), 2)
+    seen = [region.row_col(cx, cy) for cx, cy in filter(None, run["picked_box_pixels"])
+            if not (x <= cx <= x + width and y <= cy <= y + height)]
+    seen = [(r, c) for r, c in seen if 30 < r < image.shape[0] - 5 and 5 < c < image.shape[1] * 0.75]
+    assert len(seen) >= 3, run["picked_box_pixels"]
+    assert sum(bool(white[r, c]) for r, c in seen) >= len(seen) - 1, "the picked box's corners drawn white"
+
+
+def test_a_click_in_the_tree_view_picks_the_node_and_up_picks_its_parent(runs):
+    (run,) = runs_of(runs, "why_sah")
+    assert run["click"]["picked"] == run["click"]["aimed"] != 0, run["click"]
+    assert run["key_up"]["picked"] == run["key_up"]["parent"], run["key_up"]
 
 
 def test_the_race_s_animation_tasks_refit_then_rebuild_while_playing(runs):

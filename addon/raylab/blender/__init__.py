@@ -5,8 +5,8 @@ Add your module to MODULES (order matters: properties before what uses them).
 import importlib
 
 MODULES = ["properties", "preferences", "levels", "level_panels", "structure_cache", "overlay", "spin", "probe",
-           "cost_overlay", "experiments.leak", "viewport_panels", "cost_passes", "render_engine", "compare",
-           "heat_maps"]
+           "cost_overlay", "experiments.leak", "viewport_panels", "tree_view", "cost_passes", "render_engine",
+           "compare", "heat_maps"]
 
 
 def _modules():

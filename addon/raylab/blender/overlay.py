@@ -50,9 +50,16 @@ def filter_key(settings):
             settings.fade, tuple(round(c, 4) for c in settings.line_color), alpha_scale(settings))
 
 
+# Other features that dim the boxes while they draw their own over them: (scene) -> factor (1: not dimmed).
+DIMMERS = []
+
+
 def alpha_scale(settings):
-    """How strongly the boxes are drawn under the probe or the heat map (1: alone)."""
-    return COST_DIM if settings.cost_enabled else PROBE_DIM if settings.probe_enabled else 1.0
+    """How strongly the boxes are drawn under the probe, the heat map or another feature's (1: alone)."""
+    scale = COST_DIM if settings.cost_enabled else PROBE_DIM if settings.probe_enabled else 1.0
+    for dimming in DIMMERS:
+        scale *= dimming(settings.id_data)
+    return scale
 
 
 def box_palette(settings):

@@ -47,13 +47,14 @@ def labelled(layout, props, name, factor=0.5):
     return value
 
 
-class _RaylabPanel:
+class SidebarPanel:
+    """The raylab tab of the 3D viewport's sidebar (N)."""
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "raylab"
 
 
-class RAYLAB_PT_structure(_RaylabPanel, bpy.types.Panel):
+class RAYLAB_PT_structure(SidebarPanel, bpy.types.Panel):
     bl_label = "Structure"
 
     def draw_header(self, context):
@@ -170,7 +171,7 @@ def text_box(layout):
     return box
 
 
-class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
+class RAYLAB_PT_probe(SidebarPanel, bpy.types.Panel):
     bl_label = "Ray probe"
 
     def draw_header(self, context):
@@ -209,7 +210,7 @@ class RAYLAB_PT_probe(_RaylabPanel, bpy.types.Panel):
                     text_fit.label(box, context, part, boxes=1)
 
 
-class RAYLAB_PT_cost(_RaylabPanel, bpy.types.Panel):
+class RAYLAB_PT_cost(SidebarPanel, bpy.types.Panel):
     bl_label = "Cost heat map"
     bl_options = {'DEFAULT_CLOSED'}
 
@@ -226,7 +227,7 @@ class RAYLAB_PT_cost(_RaylabPanel, bpy.types.Panel):
         column.prop(settings, "cost_cells")
 
 
-class RAYLAB_PT_last_render(_RaylabPanel, bpy.types.Panel):
+class RAYLAB_PT_last_render(SidebarPanel, bpy.types.Panel):
     bl_label = "Last render"
 
     def draw(self, context):

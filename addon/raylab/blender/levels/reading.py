@@ -40,7 +40,7 @@ PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__
 # The installable zip carries the levels inside the package; a checkout has them at the top.
 LEVEL_ROOTS = (os.path.join(PACKAGE_DIR, "levels"),
                os.path.join(os.path.dirname(os.path.dirname(PACKAGE_DIR)), "levels"))
-SETTING_GROUPS = ("raylab", "raylab_render")
+SETTING_GROUPS = ("raylab", "raylab_render", "raylab_tree")
 COMPARISONS = ("equals", "in", "at_least", "at_most")
 ID_PROPERTY_TESTS = ("exists", "length_at_least", "changed", "decreased")
 PROBE_TESTS = ("within",)
@@ -98,8 +98,8 @@ class Level:
         for control in self.controls:
             group, _, name = str(control).partition(".")
             if not (group in SETTING_GROUPS or group.startswith("operator:")) or not name:
-                raise LevelError(f"{where}: a control is 'raylab.<setting>', 'raylab_render.<setting>' or "
-                                 f"'operator:<module>.<operator>', not {control!r}")
+                raise LevelError(f"{where}: a control is '<group>.<setting>' (group: {', '.join(SETTING_GROUPS)}) "
+                                 f"or 'operator:<module>.<operator>', not {control!r}")
         unknown = set(data) - {"id", "order", "title", "goal", "mesh", "objects", "scene_scale", "scene", "camera",
                                "probe", "tasks", "controls", *SETTING_GROUPS}
         if unknown:
@@ -176,7 +176,7 @@ def validate_condition(condition, where):
     if kind == "property":
         group, _, name = str(condition["property"]).partition(".")
         if group not in SETTING_GROUPS or not name.isidentifier() or name.startswith("_"):
-            raise LevelError(f"{where}: property must be 'raylab.<name>' or 'raylab_render.<name>', "
+            raise LevelError(f"{where}: property must be '<group>.<name>' (group: {', '.join(SETTING_GROUPS)}), "
                              f"not {condition['property']!r}")
     if kind in ("id_property", "probe_pixel_near"):
         path = condition[kind]

@@ -1,0 +1,613 @@
+"""The tree view: the active object's structure drawn as a tree over the 3D viewport, a node picked with a
+click (or walked to with the arrow keys and the sidebar's buttons), its box and its subtree's boxes drawn
+bright in the view with the rest dimmed, and, for a BVH node, the split explorer: the binned SAH cost of
+every candidate split along each axis, the builder's choice marked.
+
+The numbers come from the core (Structure.tree(), Structure.split_costs(node)); they are read outside the
+panels' draws (the viewport's draw handlers and the operators), which must not call the core: see
+levels.available_levels for why.
+"""
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+
+from .. import api, tree_layout
+from . import draw, overlay, structure_cache, text_fit, viewport_panels
+
+COLOURS = (
+    ("DEPTH", "Depth", "Each node in the colour of its depth, as the overlay draws its box"),
+    ("SAH", "SAH cost", "Each node's share of the tree's SAH cost: cold (cheap) to hot (costly)"),
+    ("TRIANGLES", "Triangles", "Each node's triangle count: cold (few) to hot (many)"),
+)
+TREE_DIM = 0.25  # the other boxes' alpha while a node is picked: its own boxes stand out
+PICKED = (1.0, 1.0, 1.0, 1.0)
+SUBTREE = (1.0, 0.85, 0.3, 0.9)
+CHILD_COLOURS = ((0.3, 0.8, 1.0, 1.0), (1.0, 0.45, 0.75, 1.0))  # the chosen split's two children
+AXIS_COLOURS = ((1.0, 0.2, 0.2, 1.0), (0.4, 1.0, 0.4, 1.0), (0.25, 0.4, 1.0, 1.0))  # x, y, z
+LEAF_LINE = (0.6, 0.6, 0.6, 0.9)  # the chart's line at the cost of keeping the node a leaf
+MARGIN = 16      # pixels between the view's edge and the tree's frame
+NODE_SIZE = 7    # a node's square, in pixels, at most
+CLICK_RADIUS = 10
+
+
+class TreeSettings(bpy.types.PropertyGroup):
+    enabled: BoolProperty(name="Tree View", default=False, update=lambda self, context: draw.tag_redraw(context),
+                          description="Draw the active object's structure as a tree over the viewport; click a "
+                                      "node to see its box")
+    node: IntProperty(name="Node", default=0, min=0, update=lambda self, context: draw.tag_redraw(context),
+                      description="The picked node (its index in Structure.tree())")
+    focus: IntProperty(name="Focus", default=0, min=0, update=lambda self, context: draw.tag_redraw(context),
+                       description="The node the tree view starts from (0: the root)")
+    levels: IntProperty(name="Levels", default=5, min=1, max=24, update=lambda self, context: draw.tag_redraw(context),
+                        description="How many levels below the focus the tree view shows; deeper nodes are "
+                                    "collapsed into their ancestor")
+    colour: EnumProperty(name="Colour", items=COLOURS, default="DEPTH",
+                         update=lambda self, context: draw.tag_redraw(context),
+                         description="What a node's colour tells")
+    explorer: BoolProperty(name="Split Explorer", default=True, update=lambda self, context: draw.tag_redraw(context),
+                           description="BVH: the SAH cost of every candidate split of the picked node")
+    # What a level's tasks read (read-only; from the tree last read, never calling the core).
+    picked_costliest: BoolProperty(name="Costliest Leaf Picked", get=lambda self: _picked_costliest(self.id_data),
+                                   description="The picked node is the leaf at the end of the costliest path: "
+                                               "from the root, each node's costliest child")
+    split_shown: BoolProperty(name="Split Shown", get=lambda self: _split_shown(self.id_data),
+                              description="The Split Explorer shows the picked node's candidate splits")
+    cost_over_sah: FloatProperty(name="Cost over SAH's", get=lambda self: _cost_over_sah(self.id_data),
+                                 description="The tree's SAH cost over the SAH builder's on the same mesh "
+                                             "(0 until both are known)")
+
+
+# --- the tree of a structure (read outside draws) ------------------------------------------------------
+
+class Tree:
+    """A structure's tree as the core gives it, with what the view needs: each node's children, its
+    subtree, its share of the tree's cost."""
+
+    def __init__(self, key, structure):
+        self.key = key
+        self.kind = structure.structure
+        arrays = structure.tree()
+        self.parent = np.asarray(arrays["parent"], dtype=np.int64)
+        self.depth = np.asarray(arrays["depth"])
+        self.lo, self.hi = np.asarray(arrays["lo"]), np.asarray(arrays["hi"])
+        self.triangle_count = np.asarray(arrays["triangle_count"])
+        self.has_sah = arrays["sah_cost"] is not None  # the octree has no SAH cost
+        self.sah_cost = (np.asarray(arrays["sah_cost"], dtype=np.float64) if self.has_sah
+                         else np.zeros(len(self.parent)))
+        self.children = tree_layout.Children(self.parent)
+        self.total_cost = float(self.sah_cost.sum())
+        extent = np.maximum(self.hi - self.lo, 0.0).astype(np.float64)
+        self.area = 2.0 * (extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0])
+        self._splits = {}
+        self._pictures = {}
+        self.cost = self.sah_reference = None  # Structure.sah_cost() of this tree and of the SAH builder's
+
+    def __len__(self):
+        return len(self.parent)
+
+    def node(self, index):
+        """A valid node index near `index` (a tree rebuilt smaller keeps the view working)."""
+        return int(min(max(index, 0), len(self) - 1))
+
+    def subtree(self, node):
+        """The node and every node below it."""
+        found, todo = [], [node]
+        while todo:
+            n = todo.pop()
+            found.append(n)
+            todo.extend(self.children(n).tolist())
+        return np.asarray(found, dtype=np.int64)
+
+    def costliest_child(self, node):
+        kids = self.children(node)
+        return int(kids[np.argmax(self.sah_cost[kids])]) if len(kids) else None
+
+    def picture(self, focus, levels):
+        key = (focus, levels)
+        if key not in self._pictures:
+            self._pictures = {key: tree_layout.layout(self.children, focus, levels)}
+        return self._pictures[key]
+
+    def splits(self, node, structure):
+        """Structure.split_costs(node) for an inner BVH node, else None; with what the view draws: each
+        candidate's place across the node's box (0 to 1), and the chosen split's two child boxes (the
+        wide node's children it puts left, a prefix of them, and the rest)."""
+        if self.kind != "bvh" or self.children.count(node) == 0:
+            return None
+        if node not in self._splits:
+            splits = dict(structure.split_costs(node))
+            lo, hi = np.asarray(splits["lo"], np.float64), np.asarray(splits["hi"], np.float64)
+            extent = np.where(hi > lo, hi - lo, 1.0)
+            positions = np.asarray(splits["positions"], np.float64)
+            splits["across"] = (positions - lo[:, None]) / extent[:, None]
+            axis = splits["axis"]
+            splits["across_chosen"] = float((splits["position"] - lo[axis]) / extent[axis]) if axis >= 0 else 0.0
+            kids = self.children(node)
+            left = int(np.searchsorted(np.cumsum(self.triangle_count[kids]), len(splits["left_triangles"])) + 1)
+            sides = (kids[:left], kids[left:])
+            splits["child_boxes"] = [(self.lo[side].min(axis=0), self.hi[side].max(axis=0)) for side in sides
+                                     if len(side)]
+            self._splits[node] = splits
+        return self._splits[node]
+
+
+_trees = {}  # object name -> Tree
+
+
+def target(context):
+    """The object the tree view shows: the active object if its structure is built, else the first shown
+    object with one; (object, Entry) or (None, why not)."""
+    scene = context.scene
+    objects = structure_cache.target_objects(scene, context.view_layer)
+    active = context.view_layer.objects.active
+    ordered = ([active] if active in objects else []) + [o for o in objects if o != active]
+    for obj in ordered:
+        entry = structure_cache.cached(obj, scene)
+        if entry is not None and entry.structure is not None:
+            return obj, entry
+    return None, "No shown mesh with a structure built yet"
+
+
+def tree_of(obj, entry, scene):
+    """The Tree of the object's structure, read from the core once per build, with the SAH builder's cost
+    on the same mesh beside it (calls the core: never from a panel's draw)."""
+    tree = _trees.get(obj.name_full)
+    if tree is None or tree.key != entry.key:
+        tree = _trees[obj.name_full] = Tree(entry.key, entry.structure)
+        tree.cost = entry.structure.sah_cost()
+        if tree.cost is None:  # a kind without an SAH cost
+            pass
+        elif entry.structure.builder == api.DEFAULTS["builder"]:
+            tree.sah_reference = tree.cost
+        else:  # the same mesh and settings, the default builder
+            vertices, triangles = entry.structure.mesh()
+            reference = api.build(vertices, triangles, structure=tree.kind, leaf_size=entry.structure.leaf_size,
+                                  contract=entry.structure.contract)
+            tree.sah_reference = reference.sah_cost()
+    _last_read[scene.name_full] = tree
+    return tree
+
+
+_last_read = {}  # scene name -> the Tree the view last read there (what the tasks' properties look at)
+
+
+def _picked_costliest(scene):
+    tree = _last_read.get(scene.name_full)
+    if tree is None:
+        return False
+    node = 0
+    while tree.costliest_child(node) is not None:
+        node = tree.costliest_child(node)
+    return tree.node(scene.raylab_tree.node) == node
+
+
+def _split_shown(scene):
+    tree = _last_read.get(scene.name_full)
+    settings = scene.raylab_tree
+    return (tree is not None and settings.enabled and settings.explorer
+            and tree._splits.get(tree.node(settings.node)) is not None)
+
+
+def _cost_over_sah(scene):
+    tree = _last_read.get(scene.name_full)
+    if tree is None or not tree.sah_reference:
+        return 0.0
+    return float(tree.cost / tree.sah_reference)
+
+
+def known_tree(context):
+    """(object, Tree) as last read, without calling the core (what the panel's draw asks), or (None, why)."""
+    obj, entry = target(context)
+    if obj is None:
+        return None, entry
+    tree = _trees.get(obj.name_full)
+    if tree is None or tree.key != entry.key:
+        return None, "The tree is read when the viewport draws"
+    return obj, tree
+
+
+# --- the picture over the viewport -----------------------------------------------------------------------
+
+def frames(region):
+    """The tree's and the split explorer's rectangles (x, y, width, height) in the region, bottom left up."""
+    width = max(200, min(int(region.width * 0.5), 900))
+    height = max(120, min(int(region.height * 0.36), 320))
+    tree = (MARGIN, MARGIN, width, height)
+    chart_width = max(160, min(int(region.width * 0.22), 380))
+    chart = (MARGIN * 2 + width, MARGIN, chart_width, height)
+    return tree, chart
+
+
+def node_colours(tree, nodes, mode):
+    if mode == "DEPTH":
+        palette = overlay.DEPTH_PALETTE
+        return np.concatenate([palette[tree.depth[nodes] % len(palette)], np.ones((len(nodes), 1), np.float32)], 1)
+    values = tree.sah_cost[nodes] if mode == "SAH" else tree.triangle_count[nodes].astype(np.float64)
+    top = float(values.max()) if len(values) and values.max() > 0 else 1.0
+    return api.heat_map(values, maximum=top).astype(np.float32)
+
+
+_shown = {}  # region pointer -> (tree frame, picture, node centres x, y), what a click is matched against
+
+
+def _draw_tree_view():
+    context = bpy.context
+    settings = context.scene.raylab_tree
+    if not settings.enabled:
+        return
+    region = context.region
+    obj, entry = target(context)
+    tree_frame, chart_frame = frames(region)
+    _draw_frame(tree_frame)
+    if obj is None:
+        _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, entry)
+        return
+    tree = tree_of(obj, entry, context.scene)
+    focus = tree.node(settings.focus)
+    picked = tree.node(settings.node)
+    picture = tree.picture(focus, settings.levels)
+    x0, y0, w, h = tree_frame
+    xs, ys = tree_layout.positions(picture, w, h - 22)
+    xs, ys = xs + x0, ys + y0
+    _shown[region.as_pointer()] = (tree_frame, picture, xs, ys)
+    nodes = picture["nodes"]
+    edges = picture["edges"]
+    if len(edges):
+        segments = np.stack([np.stack([xs[edges[:, 0]], ys[edges[:, 0]]], 1),
+                             np.stack([xs[edges[:, 1]], ys[edges[:, 1]]], 1)], 1).reshape(-1, 2)
+        _lines(segments, (0.7, 0.7, 0.7, 0.6))
+    size = float(np.clip(w / max(picture["places"], 1) * 0.7, 2.0, NODE_SIZE))
+    _squares(xs, ys, size, node_colours(tree, nodes, settings.colour))
+    collapsed = picture["collapsed"]
+    if collapsed.any():  # a collapsed node: a short stem under it says that more hangs there
+        stems = np.stack([np.stack([xs[collapsed], ys[collapsed] - size], 1),
+                          np.stack([xs[collapsed], ys[collapsed] - size - 6], 1)], 1).reshape(-1, 2)
+        _lines(stems, (1.0, 1.0, 1.0, 0.8))
+    where = np.flatnonzero(nodes == picked)
+    if len(where):
+        i = where[0]
+        _outline(xs[i], ys[i], size + 3, PICKED)
+    title = (f"{api.STRUCTURE_INFO[tree.kind]['label']} of {obj.name}: {len(tree):,} nodes; "
+             f"showing {len(nodes):,} below node {focus}. Click a node.")
+    _text(x0 + 8, y0 + h - 18, title)
+    if settings.explorer:
+        splits = tree.splits(picked, entry.structure)
+        if splits is not None:
+            _draw_frame(chart_frame)
+            _draw_chart(chart_frame, splits)
+
+
+def _draw_chart(frame, splits):
+    """Cost against split position (0 to 1 across the node's box) on each axis, the chosen split marked
+    and the leaf cost as a grey line."""
+    x0, y0, w, h = frame
+    top = 22
+    costs = [np.asarray(c, dtype=np.float64) for c in splits["costs"]]
+    finite = np.concatenate([c[np.isfinite(c)] for c in costs] + [np.array([splits["leaf_cost"]])])
+    low, high = float(finite.min()), float(finite.max())
+    span = high - low if high > low else 1.0
+
+    def to_pixel(position, cost):
+        return x0 + 8 + position * (w - 16), y0 + 8 + (cost - low) / span * (h - top - 16)
+    for axis in range(3):
+        positions = splits["across"][axis]
+        ok = np.isfinite(costs[axis])
+        if ok.sum() >= 2:
+            px, py = to_pixel(positions[ok], costs[axis][ok])
+            points = np.stack([px, py], 1)
+            _lines(np.stack([points[:-1], points[1:]], 1).reshape(-1, 2), AXIS_COLOURS[axis])
+    lx0, ly = to_pixel(0.0, splits["leaf_cost"])
+    lx1, _ = to_pixel(1.0, splits["leaf_cost"])
+    _lines(np.array([[lx0, ly], [lx1, ly]]), LEAF_LINE)
+    axis, position, cost = splits["axis"], splits["across_chosen"], splits["cost"]
+    if axis >= 0:
+        cx, cy = to_pixel(position, cost)
+        _lines(np.array([[cx, y0 + 8], [cx, y0 + h - top]]), AXIS_COLOURS[axis])
+        _outline(cx, cy, 5, PICKED)
+    label = "xyz"[axis] if axis >= 0 else "none"
+    _text(x0 + 8, y0 + h - 18, f"Split costs (x y z); chosen: {label} at {position:.2f}, leaf: grey")
+
+
+def _draw_frame(frame):
+    x, y, w, h = frame
+    corners = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y], [x + w, y + h], [x, y + h]], np.float32)
+    _triangles(corners, (0.05, 0.05, 0.06, 0.75))
+
+
+def _positions(points):
+    points = np.asarray(points, dtype=np.float32).reshape(-1, 2)
+    return np.ascontiguousarray(np.concatenate([points, np.zeros((len(points), 1), np.float32)], 1))
+
+
+def _colours(colour, count):
+    colour = np.asarray(colour, dtype=np.float32)
+    return np.ascontiguousarray(colour if colour.ndim == 2 else np.tile(colour, (count, 1)))
+
+
+def _batch_draw(primitive, points, colour, width=1.0):
+    import gpu
+    positions = _positions(points)
+    if len(positions) == 0:
+        return
+    batch = draw.make_batch(primitive, positions, _colours(colour, len(positions)))
+    gpu.state.blend_set('ALPHA')
+    gpu.state.line_width_set(width)
+    batch.draw(gpu.shader.from_builtin(draw.THIN))
+    gpu.state.line_width_set(1.0)
+    gpu.state.blend_set('NONE')
+
+
+def _triangles(points, colour):
+    _batch_draw('TRIS', points, colour)
+
+
+def _lines(points, colour):
+    _batch_draw('LINES', points, colour)
+
+
+def _squares(xs, ys, size, colours):
+    half = size / 2.0
+    corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1)], np.float32) * half
+    points = (np.stack([xs, ys], 1)[:, None, :] + corners[None, :, :]).reshape(-1, 2)
+    _triangles(points, np.repeat(colours, 6, axis=0))
+
+
+def _outline(x, y, size, colour):
+    h = size / 2.0
+    square = np.array([[x - h, y - h], [x + h, y - h], [x + h, y - h], [x + h, y + h], [x + h, y + h],
+                       [x - h, y + h], [x - h, y + h], [x - h, y - h]], np.float32)
+    _batch_draw('LINES', square, colour, width=2.0)
+
+
+def _text(x, y, text):
+    import blf
+    font = 0
+    blf.size(font, 12)
+    blf.color(font, 1.0, 1.0, 1.0, 1.0)
+    blf.position(font, x, y, 0)
+    blf.draw(font, text)
+
+
+# --- the picked node in the 3D view ----------------------------------------------------------------------
+
+def _draw_picked_boxes():
+    context = bpy.context
+    settings = context.scene.raylab_tree
+    if not settings.enabled:
+        return
+    obj, entry = target(context)
+    if obj is None:
+        return
+    tree = tree_of(obj, entry, context.scene)
+    picked = tree.node(settings.node)
+    xray = context.scene.raylab.xray
+    matrix = entry.model_matrix(obj)
+    subtree = tree.subtree(picked)[1:]
+    if len(subtree):
+        _draw_boxes(tree.lo[subtree], tree.hi[subtree], SUBTREE, matrix, xray)
+    splits = tree.splits(picked, entry.structure) if settings.explorer else None
+    if splits is not None and splits["axis"] >= 0:
+        for (lo, hi), colour in zip(splits["child_boxes"], CHILD_COLOURS):
+            _draw_boxes(np.asarray([lo]), np.asarray([hi]), colour, matrix, xray, width=2.0)
+    _draw_boxes(tree.lo[[picked]], tree.hi[[picked]], PICKED, matrix, xray, width=3.0)
+
+
+def _draw_boxes(lo, hi, colour, matrix, xray, width=1.0):
+    corners, indices = draw.box_wireframe(np.asarray(lo, np.float32), np.asarray(hi, np.float32))
+    starts, ends = corners[indices[:, 0]], corners[indices[:, 1]]
+    starts = structure_cache.transform_points(np.asarray(matrix), starts)
+    ends = structure_cache.transform_points(np.asarray(matrix), ends)
+    draw.draw_segments(starts, ends, np.tile(np.asarray(colour, np.float32), (len(starts), 1)), xray, width)
+
+
+def dimming(scene):
+    """The overlay's other boxes' alpha factor while the tree view has a node picked."""
+    return TREE_DIM if scene.raylab_tree.enabled else 1.0
+
+
+# --- picking and walking -----------------------------------------------------------------------------
+
+STEPS = {
+    'PARENT': "The picked node's parent", 'CHILD': "Its first child", 'NEXT': "Its next sibling",
+    'PREVIOUS': "Its previous sibling", 'ROOT': "The root", 'COSTLIEST': "Its child with the highest SAH cost",
+    'FOCUS': "Show the tree from the picked node down", 'UNFOCUS': "Show the whole tree again",
+}
+
+
+def walk(tree, node, step):
+    """The node a step leads to from `node`: 'PARENT', 'CHILD' (the first), 'NEXT'/'PREVIOUS' (sibling),
+    'ROOT', 'COSTLIEST' (the child with the highest SAH cost); the node itself where there is none."""
+    if step == 'ROOT':
+        return 0
+    parent = int(tree.parent[node])
+    if step == 'PARENT':
+        return node if parent < 0 else parent
+    if step == 'CHILD':
+        kids = tree.children(node)
+        return int(kids[0]) if len(kids) else node
+    if step == 'COSTLIEST':
+        child = tree.costliest_child(node)
+        return node if child is None else child
+    if parent < 0:
+        return node
+    siblings = list(tree.children(parent))
+    i = siblings.index(node) + (1 if step == 'NEXT' else -1)
+    return int(siblings[i]) if 0 <= i < len(siblings) else node
+
+
+class RAYLAB_OT_tree_walk(bpy.types.Operator):
+    """Pick the parent, a child, a sibling, the root or the costliest child of the picked node"""
+    bl_idname = "raylab.tree_walk"
+    bl_label = "Walk the Tree"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    step: EnumProperty(items=[(s, s.title(), STEPS[s]) for s in STEPS], default='PARENT',
+                       description="Where to go from the picked node")
+    child: IntProperty(default=-1, description="Pick this child of the picked node (its position, from 0)")
+
+    def execute(self, context):
+        obj, entry = target(context)
+        if obj is None:
+            self.report({'WARNING'}, f"raylab: {entry}")
+            return {'CANCELLED'}
+        settings = context.scene.raylab_tree
+        tree = tree_of(obj, entry, context.scene)
+        node = tree.node(settings.node)
+        if self.child >= 0:
+            kids = tree.children(node)
+            if self.child < len(kids):
+                settings.node = int(kids[self.child])
+        elif self.step == 'FOCUS':
+            settings.focus = node
+        elif self.step == 'UNFOCUS':
+            settings.focus = 0
+        else:
+            settings.node = walk(tree, node, self.step)
+        return {'FINISHED'}
+
+
+class RAYLAB_OT_tree_click(bpy.types.Operator):
+    """Pick the tree view's node under the mouse (clicks elsewhere reach the viewport as usual)"""
+    bl_idname = "raylab.tree_click"
+    bl_label = "Pick a Node"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.area is not None and context.area.type == 'VIEW_3D' and context.scene.raylab_tree.enabled
+
+    def invoke(self, context, event):
+        shown = _shown.get(context.region.as_pointer()) if context.region else None
+        if shown is None:
+            return {'PASS_THROUGH'}
+        (x, y, w, h), picture, xs, ys = shown
+        mx, my = event.mouse_region_x, event.mouse_region_y
+        if not (x <= mx <= x + w and y <= my <= y + h):
+            return {'PASS_THROUGH'}
+        d2 = (xs - mx) ** 2 + (ys - my) ** 2
+        i = int(np.argmin(d2)) if len(d2) else -1
+        if i < 0 or d2[i] > CLICK_RADIUS ** 2:
+            return {'FINISHED'}  # inside the frame but on no node: the click is the tree view's, nothing picked
+        context.scene.raylab_tree.node = int(picture["nodes"][i])
+        return {'FINISHED'}
+
+
+class RAYLAB_OT_tree_key(bpy.types.Operator):
+    """Walk the tree view with the arrow keys while the mouse is over it"""
+    bl_idname = "raylab.tree_key"
+    bl_label = "Walk the Tree with a Key"
+
+    step: EnumProperty(items=[(s, s.title(), STEPS[s]) for s in ('PARENT', 'CHILD', 'NEXT', 'PREVIOUS')],
+                       default='PARENT', description="Where the key goes from the picked node")
+
+    @classmethod
+    def poll(cls, context):
+        return RAYLAB_OT_tree_click.poll(context)
+
+    def invoke(self, context, event):
+        shown = _shown.get(context.region.as_pointer()) if context.region else None
+        if shown is None:
+            return {'PASS_THROUGH'}
+        x, y, w, h = shown[0]
+        if not (x <= event.mouse_region_x <= x + w and y <= event.mouse_region_y <= y + h):
+            return {'PASS_THROUGH'}
+        return bpy.ops.raylab.tree_walk(step=self.step)
+
+
+# --- the sidebar panel -----------------------------------------------------------------------------------
+
+def node_lines(tree, node):
+    """What the panel says of a node: [(text, icon)]."""
+    kids = tree.children.count(node)
+    kind = f"inner node, {kids} children" if kids else "leaf"
+    share = tree.sah_cost[node] / tree.total_cost if tree.total_cost > 0 else 0.0
+    root_area = tree.area[0] if tree.area[0] > 0 else 1.0
+    lines = [
+        (f"Node {node}: depth {int(tree.depth[node])}, {kind}", 'OUTLINER_DATA_LIGHTPROBE'),
+        (f"{int(tree.triangle_count[node]):,} triangles below it", 'MESH_DATA'),
+        (f"Surface area {tree.area[node]:.4g} ({tree.area[node] / root_area:.1%} of the root's)", 'CUBE'),
+    ]
+    if tree.has_sah:
+        lines.append((f"SAH cost {tree.sah_cost[node]:.4g}: {share:.1%} of the tree's {tree.total_cost:.4g}",
+                      'SORTSIZE'))
+    if tree.sah_reference and tree.cost is not None:
+        lines.append((f"The tree's SAH cost {tree.cost:.4g}, the SAH builder's {tree.sah_reference:.4g}", 'INFO'))
+    return lines
+
+
+class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
+    bl_label = "Tree"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.raylab_tree, "enabled", text="")
+
+    def draw(self, context):
+        settings = context.scene.raylab_tree
+        layout = self.layout
+        column = layout.column(align=True)
+        column.prop(settings, "colour")
+        column.prop(settings, "levels")
+        layout.prop(settings, "explorer")
+        obj, tree = known_tree(context)
+        if obj is None:
+            text_fit.label(layout, context, tree, 'INFO')
+            return
+        node = tree.node(settings.node)
+        box = layout.box()
+        for text, icon in node_lines(tree, node):
+            text_fit.label(box, context, text, icon, boxes=1)
+        row = layout.row(align=True)
+        for step, icon in (('PARENT', 'TRIA_UP'), ('PREVIOUS', 'TRIA_LEFT'), ('NEXT', 'TRIA_RIGHT'),
+                           ('CHILD', 'TRIA_DOWN')):
+            row.operator(RAYLAB_OT_tree_walk.bl_idname, text="", icon=icon).step = step
+        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Costliest").step = 'COSTLIEST'
+        row = layout.row(align=True)
+        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Root").step = 'ROOT'
+        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Focus Here").step = 'FOCUS'
+        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Whole Tree").step = 'UNFOCUS'
+        splits = tree._splits.get(node)
+        if splits is not None and splits["axis"] >= 0:
+            method = api.SPLIT_METHOD_INFO[splits["method"]]["description"]
+            text_fit.label(layout, context, f"Split along {'xyz'[splits['axis']]}, {splits['across_chosen']:.0%} "
+                                            f"across the box: {method}. Its SAH cost {splits['cost']:.4g}, as a "
+                                            f"leaf {splits['leaf_cost']:.4g}", 'MOD_EDGESPLIT')
+
+
+CLASSES = (TreeSettings, RAYLAB_OT_tree_walk, RAYLAB_OT_tree_click, RAYLAB_OT_tree_key, RAYLAB_PT_tree)
+_handles = []
+_keymaps = []
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.raylab_tree = PointerProperty(type=TreeSettings)
+    overlay.DIMMERS.append(dimming)
+    _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_picked_boxes, (), 'WINDOW', 'POST_VIEW'))
+    _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_tree_view, (), 'WINDOW', 'POST_PIXEL'))
+    keyconfig = bpy.context.window_manager.keyconfigs.addon
+    if keyconfig is not None:  # None in background mode
+        keymap = keyconfig.keymaps.new(name="3D View", space_type='VIEW_3D')
+        _keymaps.append((keymap, keymap.keymap_items.new(RAYLAB_OT_tree_click.bl_idname, 'LEFTMOUSE', 'PRESS')))
+        for key, step in (('UP_ARROW', 'PARENT'), ('DOWN_ARROW', 'CHILD'), ('LEFT_ARROW', 'PREVIOUS'),
+                          ('RIGHT_ARROW', 'NEXT')):
+            item = keymap.keymap_items.new(RAYLAB_OT_tree_key.bl_idname, key, 'PRESS')
+            item.properties.step = step
+            _keymaps.append((keymap, item))
+
+
+def unregister():
+    for keymap, item in _keymaps:
+        keymap.keymap_items.remove(item)
+    _keymaps.clear()
+    for handle in _handles:
+        bpy.types.SpaceView3D.draw_handler_remove(handle, 'WINDOW')
+    _handles.clear()
+    if dimming in overlay.DIMMERS:
+        overlay.DIMMERS.remove(dimming)
+    del bpy.types.Scene.raylab_tree
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)
+    _trees.clear()
+    _shown.clear()
