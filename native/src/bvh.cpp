@@ -270,11 +270,11 @@ StructureTree Bvh::tree() const {
   return width_ == 8 ? wide_tree(b, nodes8_, id) : wide_tree(b, nodes4_, id);
 }
 
-SplitCosts Bvh::split_costs(uint32_t id) const {
+std::vector<uint32_t> Bvh::triangles_of(uint32_t id) const {
   const size_t n = node_count() + leaf_packets_.size();
   if (id >= n)
     throw std::invalid_argument("node must be a node id below " + std::to_string(n) + ", got " + std::to_string(id));
-  // The triangles under `id`: its leaves' packets, found by walking the wide tree.
+  // Its leaves' packets, found by walking the wide tree.
   std::vector<uint32_t> triangles;
   const auto add_leaf = [&](uint32_t first_packet, uint32_t count) {
     for (uint32_t p = 0; p < (count + 3) / 4; ++p)
@@ -302,6 +302,11 @@ SplitCosts Bvh::split_costs(uint32_t id) const {
   };
   if (width_ == 8) walk(nodes8_);
   else walk(nodes4_);
+  return triangles;
+}
+
+SplitCosts Bvh::split_costs(uint32_t id) const {
+  const std::vector<uint32_t> triangles = triangles_of(id);
   const auto bounds_of = [this](uint32_t begin, uint32_t end, Bounds* out) {
     for (uint32_t i = begin; i < end; ++i) out[i - begin] = mesh_->triangle_bounds(i);
   };

@@ -103,6 +103,8 @@ class Bvh final : public StructureBase<Bvh> {
   // binary node atop each wide node.
   StructureTree tree() const;
   SplitCosts split_costs(uint32_t id) const;
+  // The triangles under box `id` (a node's subtree, or a leaf), each once, in no particular order.
+  std::vector<uint32_t> triangles_of(uint32_t id) const;
 
   int width() const { return width_; }
   // The nodes of the width built (the other vector is empty).
