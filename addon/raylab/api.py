@@ -22,6 +22,7 @@ from .heat import HEAT_COLOURS, heat_legend, heat_map, heat_scale_text, heat_tic
 
 __all__ = [
     "STRUCTURES", "STRUCTURE_INFO", "TRIANGLE_TESTS", "TRIANGLE_TEST_INFO", "CONTRACTS", "CONTRACT_INFO",
+    "BUILDERS", "BUILDER_INFO", "SPLIT_METHODS", "SPLIT_METHOD_INFO",
     "COUNTERS", "COUNTER_INFO",
     "COST_PASSES", "COST_PASS_INFO", "COST_RAYS", "COST_RAYS_INFO",
     "DEFAULTS", "SAH_CONSTANTS", "TOP_LEVEL_REFIT_LIMIT", "RAY_STATUSES", "BuildError", "load_mesh", "build",
@@ -38,6 +39,10 @@ TRIANGLE_TEST_INFO = {t["name"]: t for t in _raylab.TRIANGLE_TESTS}
 TRIANGLE_TESTS = tuple(TRIANGLE_TEST_INFO)                     # ("watertight", "moller_trumbore")
 CONTRACT_INFO = {c["name"]: c for c in _raylab.CONTRACTS}      # README "The price of exactness"
 CONTRACTS = tuple(CONTRACT_INFO)                               # ("exact", "fast")
+BUILDER_INFO = {b["name"]: b for b in _raylab.BUILDERS}        # the BVH's builders (README "Builders")
+BUILDERS = tuple(BUILDER_INFO)                                 # ("sah", "median", "spatial_median", "lbvh")
+SPLIT_METHOD_INFO = {m["name"]: m for m in _raylab.SPLIT_METHODS}  # split_costs()["method"]: how a node was split
+SPLIT_METHODS = tuple(SPLIT_METHOD_INFO)
 COUNTER_INFO = {c["name"]: c for c in _raylab.COUNTERS}      # the keys of every stats dict, in order
 COUNTERS = tuple(COUNTER_INFO)
 # The cost passes (native/include/raylab/cost_passes.h): render-pass name -> counter, label, description;
@@ -161,6 +166,7 @@ class Structure:
     leaf_size = property(lambda self: self.native.leaf_size)
     triangle_test = property(lambda self: self.native.triangle_test)
     contract = property(lambda self: self.native.contract)
+    builder = property(lambda self: self.native.builder, doc=f"one of BUILDERS: {', '.join(BUILDERS)}")
     refitted = property(lambda self: self.native.refitted,
                         doc="made by refit() keeping its source's topology (False for a build, and for a refit "
                             "of a kind whose refit rebuilds: STRUCTURE_INFO[name]['refits'] is False)")
@@ -187,6 +193,41 @@ class Structure:
         (the chance that a ray through the root enters it). Lower is a better tree; a refit's rises as
         the mesh deforms. None for kinds other than bvh."""
         return self.native.sah_cost()
+
+    def tree(self):
+        """The tree as numpy arrays, node i being boxes()[i] (the ids of boxes() and of the stories).
+
+        A dict: width W; children (M,W) i32, row i the children of inner node i (-1 for an empty slot;
+        the M inner nodes come first, for the BVH ids >= M are its leaves); parent (N,) i32 (-1 for the
+        root); depth (N,) i32; lo, hi (N,3) f32; leaf (N,) bool; triangle_count (N,) u32 (a subtree's
+        distinct triangles, as boxes()); sah_cost (N,) f64, each node's share of sah_cost() (its box's
+        area over the root's times SAH_CONSTANTS["node_visit"], or a leaf's ceil(triangles /
+        leaf_block) so weighted), so that sah_cost.sum() == sah_cost(); node_count N.
+
+        The BVH's tree is the wide tree its traversal walks (W = 4 or 8, what the CPU runs): its builder
+        makes a binary tree and collapses it, each wide node being the binary node at its top with its
+        largest inner descendants opened until it has W children. The octree gives its nodes (W = 8, a
+        row by octant, a row for every node; sah_cost None). Other kinds raise ValueError: none and aabb
+        have no tree, and the grid's occupied cells are one level, boxes()."""
+        return self.native.tree()
+
+    def split_costs(self, node):
+        """Why BVH node `node` (a tree() id) is split where it is, or is a leaf: the builder's own
+        decision, recomputed by the builder's code over the node's triangles. A wide node's decision is
+        that of the binary node at its top: the chosen split puts a prefix of its children on the left.
+
+        A dict. The SAH's candidates, as the binned SAH builder sees them (its bins, its constants:
+        SAH_CONSTANTS): candidates is "binned" (15 planes per axis between 16 bins over the centroids'
+        box) or "sorted" (nodes of 16 triangles or fewer: every split between the triangles sorted by
+        centroid); positions (3,K) f32, each plane's coordinate along x, y and z; costs (3,K) f32, the
+        SAH cost of splitting there, node_visit + (A_L B_L + A_R B_R) / A (A: half the surface area of
+        a side's or the node's box, B: ceil(triangles / leaf_block)), inf where a side is empty;
+        left_counts (3,K) u32; leaf_cost, B of the node. The choice: method (one of SPLIT_METHODS; the
+        SAH's, or the median, spatial_median and lbvh builders' own), axis (-1 without a plane),
+        position (NaN without one), candidate (the SAH's: its index in positions[axis], else -1), cost
+        (the SAH cost of the split made, or of the leaf), left_triangles (the sorted triangle ids put
+        left). Also node, count, lo and hi (3,). ValueError for kinds other than bvh, or a bad id."""
+        return self.native.split_costs(node)
 
     def mesh(self):
         """A copy of the mesh: ((V,3) float32, (T,3) uint32)."""
@@ -235,24 +276,26 @@ class Structure:
 
 
 def build(vertices, triangles, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-          triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
+          triangle_test=_D["triangle_test"], contract=_D["contract"], builder=_D["builder"], memory_budget=None):
     """Builds a structure over (V,3) float32 vertices and (T,3) uint32 triangles.
 
     Other real dtypes are converted (vertices to float32); negative or out-of-range indices, NaN or
     infinite coordinates, wrong shapes and impossible settings raise ValueError. max_depth is the
     octree's depth (0 = root only); leaf_size the triangles per octree or BVH leaf; contract "exact"
     (brute force's hit, bit for bit) or "fast" (Embree's tests, where STRUCTURE_INFO[structure]
-    ["uses_contract"]; CONTRACT_INFO says what each promises); memory_budget the bytes a build may use
-    (None = 4 GiB), beyond which it raises BuildError.
+    ["uses_contract"]; CONTRACT_INFO says what each promises); builder how the BVH chooses its splits
+    (one of BUILDERS, where STRUCTURE_INFO[structure]["uses_builder"]; BUILDER_INFO describes each);
+    memory_budget the bytes a build may use (None = 4 GiB), beyond which it raises BuildError.
     """
     return Structure(_raylab.build(vertices, triangles, structure, max_depth, leaf_size, triangle_test, contract,
-                                   memory_budget))
+                                   builder, memory_budget))
 
 
 def build_file(path, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-               triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
+               triangle_test=_D["triangle_test"], contract=_D["contract"], builder=_D["builder"],
+               memory_budget=None):
     """build() over the mesh read from an OBJ file."""
-    return Structure(_raylab.build_file(path, structure, max_depth, leaf_size, triangle_test, contract,
+    return Structure(_raylab.build_file(path, structure, max_depth, leaf_size, triangle_test, contract, builder,
                                         memory_budget))
 
 
@@ -269,8 +312,9 @@ class Scene:
     __slots__ = ("native",)
 
     def __init__(self, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-                 triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
-        self.native = _raylab.Scene(structure, max_depth, leaf_size, triangle_test, contract, memory_budget)
+                 triangle_test=_D["triangle_test"], contract=_D["contract"], builder=_D["builder"],
+                 memory_budget=None):
+        self.native = _raylab.Scene(structure, max_depth, leaf_size, triangle_test, contract, builder, memory_budget)
 
     def add_mesh(self, vertices, triangles, normals=None):
         """Adds a mesh ((V,3) vertices, (T,3) triangles, validated as in build()); returns its id.
@@ -301,9 +345,10 @@ class Scene:
         self.native.set_transform(instance, matrix)
 
     def set_settings(self, structure=_D["structure"], max_depth=_D["max_depth"], leaf_size=_D["leaf_size"],
-                     triangle_test=_D["triangle_test"], contract=_D["contract"], memory_budget=None):
+                     triangle_test=_D["triangle_test"], contract=_D["contract"], builder=_D["builder"],
+                     memory_budget=None):
         """New build settings: every mesh structure is rebuilt at the next commit()."""
-        self.native.set_settings(structure, max_depth, leaf_size, triangle_test, contract, memory_budget)
+        self.native.set_settings(structure, max_depth, leaf_size, triangle_test, contract, builder, memory_budget)
 
     def commit(self):
         """Builds what changed since the last commit; queries need it."""

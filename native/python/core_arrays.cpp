@@ -149,15 +149,17 @@ int max_depth_parameter(py::handle value) {
 }  // namespace
 
 BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
-                                      py::handle triangle_test_name, py::handle contract, py::handle memory_budget) {
+                                      py::handle triangle_test_name, py::handle contract, py::handle builder,
+                                      py::handle memory_budget) {
   BuildSettings s;
   static const std::string structures = names_of(structure_kinds()), tests = names_of(kTriangleTests),
-                           contracts = names_of(kContracts);
+                           contracts = names_of(kContracts), builders = names_of(kBvhBuilders);
   s.kind = structure_kind_from_name(str_parameter(structure, "structure", structures.c_str()));
   s.max_depth = max_depth_parameter(max_depth);
   s.leaf_size = int32_parameter(leaf_size, "leaf_size");
   s.triangle_test = triangle_test_from_name(str_parameter(triangle_test_name, "triangle_test", tests.c_str()));
   s.contract = contract_from_name(str_parameter(contract, "contract", contracts.c_str()));
+  s.builder = bvh_builder_from_name(str_parameter(builder, "builder", builders.c_str()));
   if (!memory_budget.is_none()) s.memory_budget = memory_budget_parameter(memory_budget, "memory_budget", true);
   return s;  // validated where it enters the core: build_structure, the Scene
 }

@@ -44,7 +44,8 @@ inline auto settings_keywords() {
   return std::make_tuple(py::arg("structure") = structure_kind_name(d.kind),
                          py::arg("max_depth") = max_depth_object(d.max_depth), py::arg("leaf_size") = d.leaf_size,
                          py::arg("triangle_test") = triangle_test_name(d.triangle_test),
-                         py::arg("contract") = contract_name(d.contract), py::arg("memory_budget") = py::none());
+                         py::arg("contract") = contract_name(d.contract),
+                         py::arg("builder") = bvh_builder_name(d.builder), py::arg("memory_budget") = py::none());
 }
 
 // Calls `define(keywords...)` with settings_keywords() appended to `leading` (py::arg objects).
@@ -54,7 +55,8 @@ void with_settings_keywords(Define define, Leading... leading) {
 }
 
 BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth, py::handle leaf_size,
-                                      py::handle triangle_test, py::handle contract, py::handle memory_budget);
+                                      py::handle triangle_test, py::handle contract, py::handle builder,
+                                      py::handle memory_budget);
 
 // (N,3) origins and directions; either may be a single (3,) row shared by all rays. tmin and tmax
 // are any Python objects, read as real numbers.

@@ -7,6 +7,7 @@
 #include "raylab/mesh_io.h"
 #include "raylab/refit.h"
 #include "raylab/structure.h"
+#include "raylab/tree.h"
 
 #include <algorithm>
 #include <limits>
@@ -113,6 +114,81 @@ py::dict boxes(const Structure& s, py::handle lines, py::handle depth_min, py::h
   return d;
 }
 
+template <class T, class V>
+py::array_t<T> array_of(const std::vector<V>& v) {
+  py::array_t<T> a(py::ssize_t(v.size()));
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+// Structure.tree(): StructureTree (raylab/tree.h) as arrays; ValueError for kinds without a tree.
+py::dict tree(const Structure& s) {
+  std::optional<StructureTree> t;
+  {
+    py::gil_scoped_release release;
+    t = structure_tree(s);
+  }
+  if (!t)
+    throw std::invalid_argument("structure '" + std::string(structure_kind_name(s.kind())) +
+                                "' has no tree (the BVH and the octree have one; the grid's occupied cells are "
+                                "boxes())");
+  py::dict d;
+  const py::ssize_t n = py::ssize_t(t->parent.size());
+  d["width"] = t->width;
+  d["parent"] = array_of<int32_t>(t->parent);
+  py::array_t<int32_t> children({py::ssize_t(t->children.size() / std::max(t->width, 1)), py::ssize_t(t->width)});
+  std::copy(t->children.begin(), t->children.end(), children.mutable_data());
+  d["children"] = children;
+  d["depth"] = array_of<int32_t>(t->depth);
+  std::vector<glm::vec3> lo, hi;
+  for (const Bounds& b : t->bounds) {
+    lo.push_back(b.lo);
+    hi.push_back(b.hi);
+  }
+  d["lo"] = rows(lo);
+  d["hi"] = rows(hi);
+  d["leaf"] = array_of<bool>(t->leaf);
+  d["triangle_count"] = array_of<uint32_t>(t->triangle_count);
+  d["sah_cost"] = t->sah_cost.empty() ? py::object(py::none()) : py::object(array_of<double>(t->sah_cost));
+  d["node_count"] = n;
+  return d;
+}
+
+// Structure.split_costs(node): SplitCosts (bvh_build.h) as arrays of (3, candidates) and the choice.
+py::dict split_costs(const Structure& s, py::handle node_value) {
+  const uint32_t node = uint32_t(integer_parameter(node_value, "node", 0, std::numeric_limits<uint32_t>::max()));
+  SplitCosts c;
+  {
+    py::gil_scoped_release release;
+    c = structure_split_costs(s, node);
+  }
+  const py::ssize_t k = py::ssize_t(c.cost[0].size());
+  py::array_t<float> position({py::ssize_t(3), k}), cost({py::ssize_t(3), k});
+  py::array_t<uint32_t> left({py::ssize_t(3), k});
+  for (int a = 0; a < 3; ++a) {
+    std::copy(c.position[a].begin(), c.position[a].end(), position.mutable_data() + a * k);
+    std::copy(c.cost[a].begin(), c.cost[a].end(), cost.mutable_data() + a * k);
+    std::copy(c.left_count[a].begin(), c.left_count[a].end(), left.mutable_data() + a * k);
+  }
+  py::dict d;
+  d["node"] = node;
+  d["count"] = c.count;
+  d["lo"] = py::array_t<float>(3, &c.bounds.lo[0]);
+  d["hi"] = py::array_t<float>(3, &c.bounds.hi[0]);
+  d["leaf_cost"] = c.leaf_cost;
+  d["candidates"] = c.sorted ? "sorted" : "binned";
+  d["positions"] = position;
+  d["costs"] = cost;
+  d["left_counts"] = left;
+  d["method"] = split_method_name(c.method);
+  d["axis"] = c.axis;
+  d["position"] = c.position_chosen;
+  d["candidate"] = c.candidate;
+  d["cost"] = c.cost_chosen;
+  d["left_triangles"] = array_of<uint32_t>(c.left_prims);
+  return d;
+}
+
 py::dict story(const Structure& s, py::handle origin, py::handle direction, py::handle tmin, py::handle tmax) {
   const Ray ray = ray_from_arrays(origin, direction, tmin, tmax);
   RayStory st;
@@ -152,6 +228,7 @@ void bind_core(py::module_& m) {
       .def_property_readonly("triangle_test",
                              [](const Structure& s) { return triangle_test_name(s.settings().triangle_test); })
       .def_property_readonly("contract", [](const Structure& s) { return contract_name(s.settings().contract); })
+      .def_property_readonly("builder", [](const Structure& s) { return bvh_builder_name(s.settings().builder); })
       .def_property_readonly(
           "mesh", [](const Structure& s) { return mesh_to_arrays(s.mesh()); },
           "A copy of the mesh: (vertices, triangles).")
@@ -175,6 +252,8 @@ void bind_core(py::module_& m) {
              const std::optional<double> cost = structure_sah_cost(s);
              return cost ? py::object(py::float_(*cost)) : py::object(py::none());
            })
+      .def("tree", &tree)
+      .def("split_costs", &split_costs, py::arg("node"))
       .def("boxes", &boxes, py::arg("lines") = false, py::arg("depth_min") = 0, py::arg("depth_max") = py::none(),
            py::arg("leaves_only") = false, py::arg("palette") = py::none(), py::arg("fade") = false,
            py::arg("alpha_scale") = 1.0)
@@ -187,9 +266,10 @@ void bind_core(py::module_& m) {
         m.def(
             "build",
             [](py::handle vertices, py::handle triangles, py::handle structure, py::handle max_depth,
-               py::handle leaf_size, py::handle triangle_test, py::handle contract, py::handle memory_budget) {
-              const BuildSettings settings =
-                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, contract, memory_budget);
+               py::handle leaf_size, py::handle triangle_test, py::handle contract, py::handle builder,
+               py::handle memory_budget) {
+              const BuildSettings settings = settings_from_arguments(structure, max_depth, leaf_size, triangle_test,
+                                                                     contract, builder, memory_budget);
               return build(mesh_from_arrays(vertices, triangles), settings);
             },
             keywords...);
@@ -201,10 +281,10 @@ void bind_core(py::module_& m) {
         m.def(
             "build_file",
             [](py::handle path, py::handle structure, py::handle max_depth, py::handle leaf_size,
-               py::handle triangle_test, py::handle contract, py::handle memory_budget) {
+               py::handle triangle_test, py::handle contract, py::handle builder, py::handle memory_budget) {
               const std::string file = path_parameter(path, "path");
-              const BuildSettings settings =
-                  settings_from_arguments(structure, max_depth, leaf_size, triangle_test, contract, memory_budget);
+              const BuildSettings settings = settings_from_arguments(structure, max_depth, leaf_size, triangle_test,
+                                                                     contract, builder, memory_budget);
               return build(std::make_shared<const TriangleMesh>(read_mesh_file(file)), settings);
             },
             keywords...);

@@ -58,17 +58,17 @@ void bind_scene(py::module_& m) {
   py::class_<Scene> scene(m, "Scene", "Meshes and their instances; one structure per mesh shared by its instances.");
   with_settings_keywords([&](auto... keywords) {
     scene.def(py::init([](py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
-                          py::handle contract, py::handle memory_budget) {
-                return std::make_unique<Scene>(
-                    settings_from_arguments(structure, max_depth, leaf_size, triangle_test, contract, memory_budget));
+                          py::handle contract, py::handle builder, py::handle memory_budget) {
+                return std::make_unique<Scene>(settings_from_arguments(structure, max_depth, leaf_size, triangle_test,
+                                                                       contract, builder, memory_budget));
               }),
               keywords...);
     scene.def(
         "set_settings",
         [](Scene& s, py::handle structure, py::handle max_depth, py::handle leaf_size, py::handle triangle_test,
-           py::handle contract, py::handle memory_budget) {
-          s.set_settings(
-              settings_from_arguments(structure, max_depth, leaf_size, triangle_test, contract, memory_budget));
+           py::handle contract, py::handle builder, py::handle memory_budget) {
+          s.set_settings(settings_from_arguments(structure, max_depth, leaf_size, triangle_test, contract, builder,
+                                                 memory_budget));
         },
         keywords...);
   });

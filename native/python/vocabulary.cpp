@@ -51,8 +51,8 @@ void bind_vocabulary(py::module_& m) {
   m.attr("STRUCTURES") = table(structure_kinds(), field("name", &S::name), field("label", &S::label),
                                field("description", &S::description), field("root_name", &S::root_name),
                                field("uses_max_depth", &S::uses_max_depth), field("uses_leaf_size", &S::uses_leaf_size),
-                               field("uses_contract", &S::uses_contract), field("uses_top_level", &S::uses_top_level),
-                               field("has_boxes", &S::has_boxes));
+                               field("uses_contract", &S::uses_contract), field("uses_builder", &S::uses_builder),
+                               field("uses_top_level", &S::uses_top_level), field("has_boxes", &S::has_boxes));
   // Whether refit keeps the topology (else it rebuilds): StructureInfo::refit is a function, not a field.
   for (size_t i = 0; i < structure_kinds().size(); ++i)
     m.attr("STRUCTURES")[py::int_(i)]["refits"] = structure_kinds()[i].refit != nullptr;
@@ -62,6 +62,12 @@ void bind_vocabulary(py::module_& m) {
   using K = ContractInfo;
   m.attr("CONTRACTS") = table(std::span<const K>(kContracts), field("name", &K::name), field("label", &K::label),
                               field("description", &K::description));
+  using B = BvhBuilderInfo;
+  m.attr("BUILDERS") = table(std::span<const B>(kBvhBuilders), field("name", &B::name), field("label", &B::label),
+                             field("description", &B::description));
+  using M = SplitMethodInfo;
+  m.attr("SPLIT_METHODS") =
+      table(std::span<const M>(kSplitMethods), field("name", &M::name), field("description", &M::description));
   using C = CounterInfo;
   m.attr("COUNTERS") = table(std::span<const C>(kCounters), field("name", &C::name), field("label", &C::label),
                              field("description", &C::description), field("object_work", &C::object_work));
@@ -83,6 +89,7 @@ void bind_vocabulary(py::module_& m) {
   d["leaf_size"] = defaults.leaf_size;
   d["triangle_test"] = triangle_test_name(defaults.triangle_test);
   d["contract"] = contract_name(defaults.contract);
+  d["builder"] = bvh_builder_name(defaults.builder);
   d["memory_budget"] = defaults.memory_budget;
   d["max_depth_limit"] = BuildSettings::kMaxDepthLimit;
   m.attr("BUILD_DEFAULTS") = d;
@@ -90,7 +97,7 @@ void bind_vocabulary(py::module_& m) {
   // The constants of Structure.sah_cost and of the top level's refit-or-rebuild decision.
   py::dict sah;
   sah["node_visit"] = kSahTraversalCost;
-  sah["leaf_block"] = std::extent_v<decltype(TrianglePacket::triangle)>;
+  sah["leaf_block"] = kPacketLanes;
   m.attr("SAH_CONSTANTS") = sah;
   m.attr("TOP_LEVEL_REFIT_LIMIT") = Scene::kTopLevelRefitLimit;
 }

@@ -26,7 +26,7 @@ BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& se
     for (uint32_t i = begin; i < end; ++i) out[i - begin] = mesh.triangle_bounds(i);
   };
   // Leaves are tested in packets of four.
-  return build_binary_bvh(uint32_t(n), bounds_of, uint32_t(settings.leaf_size), 4);
+  return build_binary_bvh(uint32_t(n), bounds_of, uint32_t(settings.leaf_size), kPacketLanes, settings.builder);
 }
 
 template <int W>
@@ -55,13 +55,17 @@ class Collapser {
 
   Collapser(const BinaryBvh& binary, std::vector<Node>& nodes) : binary_(binary), nodes_(nodes) {}
 
-  uint32_t collapse(uint32_t b) {
+  // Collapses binary node b, at binary depth `depth`.
+  uint32_t collapse(uint32_t b, int depth = 0) {
     uint32_t kids[W];
+    int kid_depth[W];
     int n = 0;
     const BvhNode& top = binary_.nodes[b];
     if (top.leaf()) {
+      kid_depth[n] = depth;
       kids[n++] = b;  // a root that is a leaf: a wide root with one child
     } else {
+      kid_depth[n] = kid_depth[n + 1] = depth + 1;
       kids[n++] = top.index;
       kids[n++] = top.index + 1;
     }
@@ -78,16 +82,21 @@ class Collapser {
       }
       if (open < 0) break;
       const uint32_t first = binary_.nodes[kids[open]].index;
-      for (int i = n; i > open + 1; --i) kids[i] = kids[i - 1];
+      for (int i = n; i > open + 1; --i) {
+        kids[i] = kids[i - 1];
+        kid_depth[i] = kid_depth[i - 1];
+      }
       kids[open] = first;
       kids[open + 1] = first + 1;
+      kid_depth[open + 1] = ++kid_depth[open];
       ++n;
     }
     const uint32_t w = uint32_t(nodes_.size());
     nodes_.push_back(empty_node<W>());
+    node_depths_.push_back(uint8_t(depth));
     for (int i = 0; i < n; ++i) {
       const BvhNode& k = binary_.nodes[kids[i]];
-      const uint32_t child = k.leaf() ? add_leaf(k) : collapse(kids[i]);
+      const uint32_t child = k.leaf() ? add_leaf(k, kid_depth[i]) : collapse(kids[i], kid_depth[i]);
       Node& node = nodes_[w];  // after the recursion: nodes_ may have moved
       for (int a = 0; a < 3; ++a) {
         node.lo[a][i] = k.lo[a];
@@ -100,12 +109,19 @@ class Collapser {
   }
 
   const std::vector<Leaf>& leaves() const { return leaves_; }
+  // The binary depth of each box id: the nodes', then the leaves' (Bvh::split_costs).
+  std::vector<uint8_t> binary_depths() const {
+    std::vector<uint8_t> out = node_depths_;
+    out.insert(out.end(), leaf_depths_.begin(), leaf_depths_.end());
+    return out;
+  }
   uint32_t packet_count() const { return packet_count_; }
 
  private:
-  uint32_t add_leaf(const BvhNode& leaf) {
+  uint32_t add_leaf(const BvhNode& leaf, int depth) {
     const uint32_t first = packet_count_;
     leaves_.push_back({leaf.index, leaf.count, first});
+    leaf_depths_.push_back(uint8_t(depth));
     packet_count_ += (leaf.count + 3) / 4;
     return first;
   }
@@ -113,6 +129,7 @@ class Collapser {
   const BinaryBvh& binary_;
   std::vector<Node>& nodes_;
   std::vector<Leaf> leaves_;
+  std::vector<uint8_t> node_depths_, leaf_depths_;  // the builder keeps binary depths below 48 + 32
   uint32_t packet_count_ = 0;
 };
 
@@ -151,13 +168,14 @@ int chosen_width(int width, Contract contract) {
 template <int W>
 std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary, Contract contract,
                                     std::vector<BvhWideNode<W>>& nodes, HugeArray<TrianglePacket>& packets,
-                                    size_t& packet_count) {
+                                    size_t& packet_count, std::vector<uint8_t>& binary_depths) {
   nodes.reserve(binary.nodes.size() / (W - 1) + 1);
   Collapser<W> collapser(binary, nodes);
   collapser.collapse(0);
   nodes.shrink_to_fit();
   const std::vector<Leaf>& leaves = collapser.leaves();
   packet_count = collapser.packet_count();
+  binary_depths = collapser.binary_depths();
   packets = make_huge_array<TrianglePacket>(packet_count);  // every packet is written below
   tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) fill_packets(mesh, binary, leaves[i], contract, packets.get());
@@ -201,8 +219,9 @@ Bvh::Bvh(MeshPtr mesh, const BuildSettings& settings, int width)
   const BinaryBvh binary = build_over_triangles(*mesh_, settings_);
   if (binary.nodes.empty()) return;
   root_bounds_ = binary.nodes[0].bounds();
-  leaf_packets_ = width_ == 8 ? collapse_into(*mesh_, binary, settings_.contract, nodes8_, packets_, packet_count_)
-                              : collapse_into(*mesh_, binary, settings_.contract, nodes4_, packets_, packet_count_);
+  leaf_packets_ =
+      width_ == 8 ? collapse_into(*mesh_, binary, settings_.contract, nodes8_, packets_, packet_count_, binary_depth_)
+                  : collapse_into(*mesh_, binary, settings_.contract, nodes4_, packets_, packet_count_, binary_depth_);
 }
 
 std::vector<BoxInfo> Bvh::boxes() const {
@@ -211,9 +230,94 @@ std::vector<BoxInfo> Bvh::boxes() const {
                      : wide_boxes(root_bounds_, nodes4_, leaf_packets_.size(), id);
 }
 
+namespace {
+
+// The tree of a wide BVH, ids as boxes(); each node's SAH term as sah_cost sums them (bvh_refit.cpp).
+template <int W>
+StructureTree wide_tree(const std::vector<BoxInfo>& boxes, const std::vector<BvhWideNode<W>>& nodes,
+                        const std::function<uint32_t(uint32_t)>& leaf_id) {
+  StructureTree t;
+  t.width = W;
+  const size_t n = boxes.size();
+  t.parent.assign(n, -1);
+  t.children.assign(nodes.size() * W, -1);
+  for (size_t p = 0; p < nodes.size(); ++p)
+    for (int i = 0; i < W; ++i) {
+      if (!nodes[p].used(i)) continue;
+      const uint32_t id = nodes[p].leaf(i) ? leaf_id(nodes[p].child[i]) : nodes[p].child[i];
+      t.children[p * W + i] = int32_t(id);
+      t.parent[id] = int32_t(p);
+    }
+  const double root = n ? double(boxes[0].bounds.surface_area()) : 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const BoxInfo& b = boxes[i];
+    t.depth.push_back(b.depth);
+    t.bounds.push_back(b.bounds);
+    t.leaf.push_back(b.leaf);
+    t.triangle_count.push_back(b.triangle_count);
+    const double weight = root > 0.0 ? double(b.bounds.surface_area()) / root : 1.0;
+    t.sah_cost.push_back(
+        weight * (b.leaf ? double((b.triangle_count + kPacketLanes - 1) / kPacketLanes) : double(kSahTraversalCost)));
+  }
+  return t;
+}
+
+}  // namespace
+
+StructureTree Bvh::tree() const {
+  const std::vector<BoxInfo> b = boxes();
+  const auto id = [this](uint32_t first_packet) { return leaf_id(first_packet); };
+  return width_ == 8 ? wide_tree(b, nodes8_, id) : wide_tree(b, nodes4_, id);
+}
+
+std::vector<uint32_t> Bvh::triangles_of(uint32_t id) const {
+  const size_t n = node_count() + leaf_packets_.size();
+  if (id >= n)
+    throw std::invalid_argument("node must be a node id below " + std::to_string(n) + ", got " + std::to_string(id));
+  // Its leaves' packets, found by walking the wide tree.
+  std::vector<uint32_t> triangles;
+  const auto add_leaf = [&](uint32_t first_packet, uint32_t count) {
+    for (uint32_t p = 0; p < (count + 3) / 4; ++p)
+      for (uint32_t lane = 0; lane < 4; ++lane)
+        if (packets_[first_packet + p].triangle[lane] != kInvalidIndex)
+          triangles.push_back(packets_[first_packet + p].triangle[lane]);
+  };
+  const auto walk = [&](const auto& nodes) {
+    if (id >= node_count()) {
+      const uint32_t leaf = id - uint32_t(node_count());
+      const uint32_t next = leaf + 1 < leaf_packets_.size() ? leaf_packets_[leaf + 1] : uint32_t(packet_count_);
+      add_leaf(leaf_packets_[leaf], 4 * (next - leaf_packets_[leaf]));
+      return;
+    }
+    std::vector<uint32_t> stack{id};
+    while (!stack.empty()) {
+      const auto& node = nodes[stack.back()];
+      stack.pop_back();
+      for (size_t i = 0; i < std::size(node.child); ++i) {
+        if (!node.used(int(i))) continue;
+        if (node.leaf(int(i))) add_leaf(node.child[i], node.count[i]);
+        else stack.push_back(node.child[i]);
+      }
+    }
+  };
+  if (width_ == 8) walk(nodes8_);
+  else walk(nodes4_);
+  return triangles;
+}
+
+SplitCosts Bvh::split_costs(uint32_t id) const {
+  const std::vector<uint32_t> triangles = triangles_of(id);
+  const auto bounds_of = [this](uint32_t begin, uint32_t end, Bounds* out) {
+    for (uint32_t i = begin; i < end; ++i) out[i - begin] = mesh_->triangle_bounds(i);
+  };
+  return explain_split(uint32_t(mesh_->triangle_count()), bounds_of, triangles, binary_depth_[id],
+                       uint32_t(settings_.leaf_size), kPacketLanes, settings_.builder);
+}
+
 size_t Bvh::memory_bytes() const {
   return nodes4_.capacity() * sizeof(Bvh4Node) + nodes8_.capacity() * sizeof(Bvh8Node) +
-         packet_count_ * sizeof(TrianglePacket) + leaf_packets_.capacity() * sizeof(uint32_t);
+         packet_count_ * sizeof(TrianglePacket) + leaf_packets_.capacity() * sizeof(uint32_t) +
+         binary_depth_.capacity();
 }
 
 bool Bvh::coherent(const Ray& first, const Ray& ray, float origin_limit) {

@@ -11,6 +11,7 @@
 #include "fast_contract.h"
 #include "raylab/bvh_build.h"
 #include "raylab/structure.h"
+#include "raylab/tree.h"
 #include "raylab/triangle_packets.h"
 #include "triangle_loop.h"
 
@@ -97,6 +98,13 @@ class Bvh final : public StructureBase<Bvh> {
   // is id node_count + k.
   std::vector<BoxInfo> boxes() const override;
   size_t memory_bytes() const override;
+
+  // The tree (raylab/tree.h): the wide tree the traversal walks, and the builder's decision at the
+  // binary node atop each wide node.
+  StructureTree tree() const;
+  SplitCosts split_costs(uint32_t id) const;
+  // The triangles under box `id` (a node's subtree, or a leaf), each once, in no particular order.
+  std::vector<uint32_t> triangles_of(uint32_t id) const;
 
   int width() const { return width_; }
   // The nodes of the width built (the other vector is empty).
@@ -445,6 +453,7 @@ class Bvh final : public StructureBase<Bvh> {
   HugeArray<TrianglePacket> packets_;
   size_t packet_count_ = 0;
   std::vector<uint32_t> leaf_packets_;  // first packet of each leaf, increasing: leaf k's id
+  std::vector<uint8_t> binary_depth_;   // per box id, the depth of its binary node in the build (split_costs)
 };
 
 std::unique_ptr<Structure> build_bvh(MeshPtr mesh, const BuildSettings& settings);

@@ -12,9 +12,6 @@ namespace raylab {
 
 namespace {
 
-// Triangles per leaf block of the SAH: a packet's lanes (bvh.cpp builds with this block).
-constexpr uint32_t kPacketLanes = std::extent_v<decltype(TrianglePacket::triangle)>;
-
 template <int W>
 void set_slot(BvhWideNode<W>& node, int i, const Bounds& b) {
   for (int a = 0; a < 3; ++a) {
@@ -101,7 +98,8 @@ Bvh::Bvh(const Bvh& source, MeshPtr moved)
       nodes8_(source.nodes8_),
       packets_(make_huge_array<TrianglePacket>(source.packet_count_)),  // every packet is rewritten
       packet_count_(source.packet_count_),
-      leaf_packets_(source.leaf_packets_) {
+      leaf_packets_(source.leaf_packets_),
+      binary_depth_(source.binary_depth_) {
   if (mesh_->triangles != source.mesh_->triangles)
     throw std::invalid_argument("bvh refit: the moved mesh must have the source's triangles");
   root_bounds_ = width_ == 8 ? refit_wide(*mesh_, nodes8_, settings_.contract, source.packets_.get(), packets_.get())

@@ -18,6 +18,14 @@ void BuildSettings::validate() const {
                                 std::to_string(max_depth));
   if (leaf_size < 1) throw std::invalid_argument("leaf_size must be >= 1, got " + std::to_string(leaf_size));
   if (memory_budget == 0) throw std::invalid_argument("memory_budget must be positive");
+  if (builder != BuildSettings().builder && !structure_info(kind).uses_builder) {
+    std::string takers;
+    for (const StructureInfo& info : structure_kinds())
+      if (info.uses_builder) takers += (takers.empty() ? "" : ", ") + std::string(info.name);
+    throw std::invalid_argument("builder '" + std::string(bvh_builder_name(builder)) +
+                                "' is not available for structure '" + std::string(structure_info(kind).name) +
+                                "': it has one way to build (" + takers + " take a builder)");
+  }
   if (contract == Contract::Fast) {
     if (!structure_info(kind).uses_contract) {
       std::string takers;

@@ -29,19 +29,20 @@ std::unique_ptr<Structure> remake(const Structure& source, MeshPtr moved) {
 // every ray and its own structure decides, so a Scene gives them no top level.
 constexpr StructureInfo kStructures[] = {
     {StructureKind::None, "none", "None", "Every ray tests every triangle (brute force)", "the object", false, false,
-     false, false, false, &make<BruteForce>, &remake<BruteForce>},
+     false, false, false, false, &make<BruteForce>, &remake<BruteForce>},
     {StructureKind::Aabb, "aabb", "AABB", "One axis-aligned bounding box per object; rays that miss it are ignored",
-     "the AABB", false, false, false, false, true, &make<AabbStructure>, &remake<AabbStructure>},
+     "the AABB", false, false, false, false, false, true, &make<AabbStructure>, &remake<AabbStructure>},
     {StructureKind::Octree, "octree", "Octree",
      "A cube split into octants while a node holds more than leaf size triangles, down to the maximum depth "
      "(auto: derived from the triangle count and the memory budget)",
-     "the octree root", true, true, false, true, true, &build_octree, nullptr},
-    {StructureKind::Bvh, "bvh", "BVH", "A bounding volume hierarchy built with the binned surface area heuristic",
-     "the BVH root", false, true, true, true, true, &build_bvh, &refit_bvh},
+     "the octree root", true, true, false, false, true, true, &build_octree, nullptr},
+    {StructureKind::Bvh, "bvh", "BVH",
+     "A bounding volume hierarchy, built with the binned surface area heuristic or another builder", "the BVH root",
+     false, true, true, true, true, true, &build_bvh, &refit_bvh},
     {StructureKind::Grid, "grid", "Uniform grid",
      "Equal cells over the mesh's box, about 3 times the cube root of the triangle count along the longest "
      "side, walked front to back (3D-DDA)",
-     "the grid's box", false, false, false, true, true, &build_grid, nullptr},
+     "the grid's box", false, false, false, false, true, true, &build_grid, nullptr},
 };
 
 }  // namespace

@@ -72,8 +72,8 @@ def test_an_import_inside_a_function_closes_a_circle():
         "raylab.blender.a", "raylab.blender.b", "raylab.blender.a"]
 
 
-VALUES = {"max_depth": 5, "leaf_size": 6, "contract": "fast"}  # one value per setting, none the default
-OTHER = {"max_depth": 7, "leaf_size": 8, "contract": "exact"}   # another value of each
+VALUES = {"max_depth": 5, "leaf_size": 6, "contract": "fast", "builder": "median"}  # one per setting, none the default
+OTHER = {"max_depth": 7, "leaf_size": 8, "contract": "exact", "builder": "lbvh"}  # another value of each
 
 
 def test_every_setting_has_its_test_values():
@@ -103,7 +103,8 @@ def test_auto_depth_is_the_cores_auto_and_every_build_takes_the_same_arguments()
     octree = raylab.build(vertices, triangles, **build_settings.build_kwargs(props("octree")))
     assert octree.max_depth == VALUES["max_depth"]
     assert octree.contract == "exact"  # a kind without a fast contract builds exact, not refused
+    assert octree.builder == raylab.DEFAULTS["builder"]  # nor a builder: the default, not refused
     bvh = raylab.build(vertices, triangles, **build_settings.build_kwargs(props("bvh")))
-    assert bvh.contract == "fast" and bvh.leaf_size == VALUES["leaf_size"]
+    assert bvh.contract == "fast" and bvh.leaf_size == VALUES["leaf_size"] and bvh.builder == VALUES["builder"]
     scene = raylab.Scene(**build_settings.build_kwargs(props("octree", max_depth_auto=True)))
     assert scene is not None

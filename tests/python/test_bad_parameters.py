@@ -41,6 +41,12 @@ SETTINGS = {
                        f" or {raylab.STRUCTURES[-1]}, got None"),
     "triangle_test number": (dict(triangle_test=1), "triangle_test must be a str: watertight or moller_trumbore, "
                              "got 1"),
+    "builder unknown": (dict(builder="best"), "unknown builder 'best': expected " + " or ".join(raylab.BUILDERS)),
+    "builder number": (dict(builder=2), "builder must be a str: " + ", ".join(raylab.BUILDERS[:-1]) +
+                       f" or {raylab.BUILDERS[-1]}, got 2"),
+    "builder of a kind without one": (dict(structure="octree", builder="lbvh"),
+                                      "builder 'lbvh' is not available for structure 'octree': it has one way to "
+                                      "build (bvh take a builder)"),
     "memory_budget array": (dict(memory_budget=np.zeros(1000)), "memory_budget must be a whole number of bytes "
                             "or None, got a value of type numpy.ndarray"),
 }

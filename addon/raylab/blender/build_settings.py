@@ -2,13 +2,13 @@
 viewport, scene.raylab_render for F12 and the comparison): which settings a kind uses, the depth rule,
 the cache key, and the keyword arguments of every build (raylab.Scene, raylab.build, build_scene).
 
-No bpy here: `props` is anything with structure, max_depth_auto, max_depth, leaf_size and contract (a
-property group, or a SimpleNamespace in a test). properties.py defines those five for both groups in one
-place.
+No bpy here: `props` is anything with structure, max_depth_auto, max_depth, leaf_size, contract and
+builder (a property group, or a SimpleNamespace in a test). properties.py defines those six for both
+groups in one place.
 """
 from .. import api
 
-SETTINGS = ("max_depth", "leaf_size", "contract")  # a kind uses one when api.STRUCTURE_INFO[kind]["uses_<setting>"]
+SETTINGS = ("max_depth", "leaf_size", "contract", "builder")  # a kind uses one when api.STRUCTURE_INFO[kind]["uses_<setting>"]
 
 
 def uses(structure, setting):
@@ -28,12 +28,18 @@ def contract(props, structure):
     return props.contract if uses(structure, "contract") else api.DEFAULTS["contract"]
 
 
+def builder(props, structure):
+    """The group's BVH builder where `structure` takes one, else the default (refused otherwise, as the
+    contract)."""
+    return props.builder if uses(structure, "builder") else api.DEFAULTS["builder"]
+
+
 def build_kwargs(props, structure=None):
-    """structure, max_depth, leaf_size and contract of a build from `props`; `structure` builds another
-    kind with the group's settings (the comparison builds every kind)."""
+    """structure, max_depth, leaf_size, contract and builder of a build from `props`; `structure` builds
+    another kind with the group's settings (the comparison builds every kind)."""
     structure = structure or props.structure
     return dict(structure=structure, max_depth=max_depth(props), leaf_size=props.leaf_size,
-                contract=contract(props, structure))
+                contract=contract(props, structure), builder=builder(props, structure))
 
 
 def cache_key(props):

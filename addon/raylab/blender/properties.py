@@ -33,9 +33,14 @@ def contract_items():
     return [(name, info["label"], info["description"]) for name, info in api.CONTRACT_INFO.items()]
 
 
+def builder_items():
+    """EnumProperty items from the core's table of BVH builders (api.BUILDER_INFO): sah, median, ..."""
+    return [(name, info["label"], info["description"]) for name, info in api.BUILDER_INFO.items()]
+
+
 def structure_properties(*, drawable_only, structure, max_depth, auto_depth, update=None):
     """The structure and its build settings (build_settings.py reads them), defined once for both groups so
-    that their limits cannot drift: a mix-in class of the five properties. `drawable_only`: no kind
+    that their limits cannot drift: a mix-in class of the six properties. `drawable_only`: no kind
     without boxes (the overlay's list); `structure`, `max_depth`, `auto_depth`: the defaults; `update`:
     what a change calls."""
     on_change = {} if update is None else {"update": update}
@@ -58,6 +63,11 @@ def structure_properties(*, drawable_only, structure, max_depth, auto_depth, upd
                                  **on_change,
                                  description="BVH: what a hit promises. Exact: the same hit as brute force; "
                                              "fast: Embree's tests, faster, wrong at edges and near surfaces"),
+        "builder": EnumProperty(name="Builder", items=builder_items(), default=api.DEFAULTS["builder"],
+                                **on_change,
+                                description="BVH: where each node splits. The binned SAH minimises the expected "
+                                            "cost of a ray; the others split by count, by space or by Morton "
+                                            "code"),
     }})
 
 
@@ -140,7 +150,7 @@ def _pixel_setter(axis):
 # there: the levels teach with the depth slider.
 class RAYLAB_PG_scene(structure_properties(drawable_only=True, structure="octree", max_depth=4, auto_depth=False,
                                            update=_redraw), bpy.types.PropertyGroup):
-    # Structure overlay: structure, max_depth_auto, max_depth, leaf_size, contract from structure_properties
+    # Structure overlay: structure, max_depth_auto, max_depth, leaf_size, contract, builder from structure_properties
     animation_update: EnumProperty(name="On animation", default="REFIT", update=_redraw, items=[
         ("REFIT", "Refit", "Keep the structure's tree and recompute its boxes: fast, but the tree degrades "
                            "(octree and grid rebuild anyway)"),
@@ -222,7 +232,7 @@ class RAYLAB_PG_render(structure_properties(drawable_only=False, structure=api.D
                                             auto_depth=api.DEFAULTS["max_depth"] == "auto"),
                        bpy.types.PropertyGroup):
     """scene.raylab_render: the raylab render engine and the structure comparison (structure, max_depth_auto,
-    max_depth, leaf_size, contract from structure_properties)."""
+    max_depth, leaf_size, contract, builder from structure_properties)."""
 
     super_sampling: IntProperty(name="Super Sampling", default=1, min=1, max=4,
                                 description="N x N camera rays per pixel")

@@ -31,6 +31,9 @@ def draw_structure_settings(layout, props):
     contract = layout.row()
     contract.active = build_settings.uses(props.structure, "contract")
     contract.prop(props, "contract")
+    builder = layout.row()
+    builder.active = build_settings.uses(props.structure, "builder")
+    builder.prop(props, "builder")
 
 
 def labelled(layout, props, name, factor=0.5):

@@ -1,6 +1,7 @@
 // The one interface behind which the acceleration structures live, and the table that names them.
 #pragma once
 
+#include "raylab/bvh_builder.h"
 #include "raylab/contract.h"
 #include "raylab/geometry.h"
 #include "raylab/traversal_record.h"
@@ -33,11 +34,12 @@ struct BuildSettings {
   int leaf_size = 8;           // octree: split while a node holds more triangles than this; bvh: max per leaf
   TriangleTest triangle_test = TriangleTest::Watertight;  // the exact contract's triangle test
   Contract contract = Contract::Exact;                    // fast: only where StructureInfo::uses_contract
+  BvhBuilder builder = BvhBuilder::Sah;                   // others: only where StructureInfo::uses_builder
   size_t memory_budget = kDefaultMemoryBudget;            // a build that would need more stops with BuildError
 
   // The one place that decides whether settings are acceptable (the depth limit, leaf size, memory
-  // budget, the contract): build_structure and the Scene call it where settings enter the core, the bindings only
-  // convert types. Throws std::invalid_argument naming the bad setting.
+  // budget, the contract, the builder): build_structure and the Scene call it where settings enter the core, the
+  // bindings only convert types. Throws std::invalid_argument naming the bad setting.
   void validate() const;
   // validate()'s refusal of a negative max_depth. The bindings give it for -1 as well: from Python only
   // the name kAutoDepthName means auto.
@@ -58,6 +60,7 @@ struct StructureInfo {
   bool uses_max_depth;      // whether BuildSettings::max_depth changes the build
   bool uses_leaf_size;      // whether BuildSettings::leaf_size changes the build
   bool uses_contract;       // whether it has the fast contract (BuildSettings::contract); else only exact
+  bool uses_builder;        // whether BuildSettings::builder chooses how it is built; else only the default
   bool uses_top_level;      // in a Scene: a BVH over the instances' world boxes decides which to visit
   bool has_boxes;           // whether it has boxes to draw
   std::unique_ptr<Structure> (*build)(MeshPtr mesh, const BuildSettings& settings);

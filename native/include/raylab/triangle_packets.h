@@ -13,6 +13,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 namespace raylab {
 
@@ -23,6 +24,9 @@ struct alignas(16) TrianglePacket {
   uint32_t triangle[4];
 };
 static_assert(sizeof(TrianglePacket) == 160);
+// Triangles per packet: the SAH's leaf block (a leaf costs one test per packet), for the BVH's builder,
+// sah_cost, Structure.tree() and _raylab.SAH_CONSTANTS.
+inline constexpr uint32_t kPacketLanes = std::extent_v<decltype(TrianglePacket::triangle)>;
 
 // The triangle in lane `lane` of a run of consecutive packets (lanes 0-3 the first packet's).
 inline uint32_t packet_triangle(const TrianglePacket* packets, int lane) {
