@@ -273,6 +273,7 @@ def why_sah(run):
     tree.enabled = True
     yield from step(run, "Tree view on", 1)
     yield from click_in_tree(run, scene)
+    assert press(bpy.ops.raylab.tree_walk, step='ROOT') == {'FINISHED'}
     for _ in range(64):  # from the root down, the costliest child until a leaf
         if tree.picked_costliest:
             break

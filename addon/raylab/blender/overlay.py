@@ -19,6 +19,9 @@ DEPTH_PALETTE = np.array([
     (0.25, 0.55, 1.00), (0.60, 0.35, 1.00), (1.00, 0.35, 0.85), (1.00, 1.00, 1.00), (0.60, 0.60, 0.60),
     (0.80, 0.55, 0.35),
 ], dtype=np.float32)
+# Opaque RGBA rows, made once: a panel's draw reads them (numpy's copies let go of the interpreter lock,
+# which a draw must not: levels.available_levels says why).
+DEPTH_PALETTE_RGBA = np.concatenate([DEPTH_PALETTE, np.ones((len(DEPTH_PALETTE), 1), np.float32)], axis=1)
 
 # While the probe is on, the boxes are drawn this faint, so that the probe's path stands out; while the
 # cost heat map is on, fainter still: its cells are drawn after the boxes, over them (cost_overlay's
@@ -65,7 +68,7 @@ def alpha_scale(settings):
 def box_palette(settings):
     """The colours by depth (the palette, opaque) or the one line colour, as (P,4) RGBA rows."""
     if settings.color_by_depth:
-        return np.concatenate([DEPTH_PALETTE, np.ones((len(DEPTH_PALETTE), 1), np.float32)], axis=1)
+        return DEPTH_PALETTE_RGBA
     return np.asarray(settings.line_color, dtype=np.float32)[None, :]
 
 

@@ -16,8 +16,8 @@ from . import draw, overlay, structure_cache, text_fit, viewport_panels
 
 COLOURS = (
     ("DEPTH", "Depth", "Each node in the colour of its depth, as the overlay draws its box"),
-    ("SAH", "SAH cost", "Each node's share of the tree's SAH cost: cold (cheap) to hot (costly)"),
-    ("TRIANGLES", "Triangles", "Each node's triangle count: cold (few) to hot (many)"),
+    ("SAH", "SAH cost", "Each node's SAH cost against the costliest node of its depth: cold (cheap) to hot"),
+    ("TRIANGLES", "Triangles", "Each node's triangles against the most of its depth: cold (few) to hot (many)"),
 )
 TREE_DIM = 0.25  # the other boxes' alpha while a node is picked: its own boxes stand out
 PICKED = (1.0, 1.0, 1.0, 1.0)
@@ -26,8 +26,9 @@ CHILD_COLOURS = ((0.3, 0.8, 1.0, 1.0), (1.0, 0.45, 0.75, 1.0))  # the chosen spl
 AXIS_COLOURS = ((1.0, 0.2, 0.2, 1.0), (0.4, 1.0, 0.4, 1.0), (0.25, 0.4, 1.0, 1.0))  # x, y, z
 LEAF_LINE = (0.6, 0.6, 0.6, 0.9)  # the chart's line at the cost of keeping the node a leaf
 MARGIN = 16      # pixels between the view's edge and the tree's frame
-NODE_SIZE = 7    # a node's square, in pixels, at most
+NODE_SIZE = 9    # a node's square, in pixels, at most
 CLICK_RADIUS = 10
+NODE_EDGE = (0.55, 0.55, 0.55, 1.0)
 
 
 class TreeSettings(bpy.types.PropertyGroup):
@@ -38,7 +39,7 @@ class TreeSettings(bpy.types.PropertyGroup):
                       description="The picked node (its index in Structure.tree())")
     focus: IntProperty(name="Focus", default=0, min=0, update=lambda self, context: draw.tag_redraw(context),
                        description="The node the tree view starts from (0: the root)")
-    levels: IntProperty(name="Levels", default=5, min=1, max=24, update=lambda self, context: draw.tag_redraw(context),
+    levels: IntProperty(name="Levels", default=3, min=1, max=24, update=lambda self, context: draw.tag_redraw(context),
                         description="How many levels below the focus the tree view shows; deeper nodes are "
                                     "collapsed into their ancestor")
     colour: EnumProperty(name="Colour", items=COLOURS, default="DEPTH",
@@ -218,13 +219,29 @@ def frames(region):
     return tree, chart
 
 
+def shown_focus(tree, focus, picked, levels):
+    """The node the picture starts from: the focus, unless the picked node lies outside what it shows;
+    then the picked node's ancestor `levels - 1` above it, so that the pick is on the bottom row."""
+    ancestors = [picked]
+    while tree.parent[ancestors[-1]] >= 0:
+        ancestors.append(int(tree.parent[ancestors[-1]]))
+    if focus in ancestors and ancestors.index(focus) <= levels:
+        return focus
+    return ancestors[min(levels - 1, len(ancestors) - 1)]
+
+
 def node_colours(tree, nodes, mode):
     if mode == "DEPTH":
-        palette = overlay.DEPTH_PALETTE
-        return np.concatenate([palette[tree.depth[nodes] % len(palette)], np.ones((len(nodes), 1), np.float32)], 1)
+        palette = overlay.DEPTH_PALETTE_RGBA
+        return palette[tree.depth[nodes] % len(palette)]
     values = tree.sah_cost[nodes] if mode == "SAH" else tree.triangle_count[nodes].astype(np.float64)
-    top = float(values.max()) if len(values) and values.max() > 0 else 1.0
-    return api.heat_map(values, maximum=top).astype(np.float32)
+    # Against the largest of the same depth: a node's cost falls with its depth (its box's area), so one
+    # scale for all would leave everything below the root cold. The square root spreads the small values.
+    depth = tree.depth[nodes]
+    top = np.zeros(int(depth.max()) + 1 if len(depth) else 1)
+    np.maximum.at(top, depth, values)
+    share = np.divide(values, top[depth], out=np.zeros_like(values), where=top[depth] > 0)
+    return api.heat_map(np.sqrt(share), maximum=1.0).astype(np.float32)
 
 
 _shown = {}  # region pointer -> (tree frame, picture, node centres x, y), what a click is matched against
@@ -243,8 +260,8 @@ def _draw_tree_view():
         _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, entry)
         return
     tree = tree_of(obj, entry, context.scene)
-    focus = tree.node(settings.focus)
     picked = tree.node(settings.node)
+    focus = shown_focus(tree, tree.node(settings.focus), picked, settings.levels)
     picture = tree.picture(focus, settings.levels)
     x0, y0, w, h = tree_frame
     xs, ys = tree_layout.positions(picture, w, h - 22)
@@ -255,8 +272,9 @@ def _draw_tree_view():
     if len(edges):
         segments = np.stack([np.stack([xs[edges[:, 0]], ys[edges[:, 0]]], 1),
                              np.stack([xs[edges[:, 1]], ys[edges[:, 1]]], 1)], 1).reshape(-1, 2)
-        _lines(segments, (0.7, 0.7, 0.7, 0.6))
-    size = float(np.clip(w / max(picture["places"], 1) * 0.7, 2.0, NODE_SIZE))
+        _lines(segments, (0.7, 0.7, 0.7, 0.35))
+    size = float(np.clip(w / max(picture["places"], 1) * 0.8, 4.0, NODE_SIZE))
+    _squares(xs, ys, size + 2, np.tile(np.float32(NODE_EDGE), (len(xs), 1)))  # an edge: black is a colour too
     _squares(xs, ys, size, node_colours(tree, nodes, settings.colour))
     collapsed = picture["collapsed"]
     if collapsed.any():  # a collapsed node: a short stem under it says that more hangs there
@@ -305,7 +323,7 @@ def _draw_chart(frame, splits):
         _lines(np.array([[cx, y0 + 8], [cx, y0 + h - top]]), AXIS_COLOURS[axis])
         _outline(cx, cy, 5, PICKED)
     label = "xyz"[axis] if axis >= 0 else "none"
-    _text(x0 + 8, y0 + h - 18, f"Split costs (x y z); chosen: {label} at {position:.2f}, leaf: grey")
+    _text(x0 + 8, y0 + h - 18, f"Split costs along x, y, z; chosen: {label}")
 
 
 def _draw_frame(frame):
@@ -590,11 +608,14 @@ def register():
     if keyconfig is not None:  # None in background mode
         keymap = keyconfig.keymaps.new(name="3D View", space_type='VIEW_3D')
         _keymaps.append((keymap, keymap.keymap_items.new(RAYLAB_OT_tree_click.bl_idname, 'LEFTMOUSE', 'PRESS')))
+        # The arrows go in the Frames keymap: the 3D view handles it before its own (Up and Down jump to the
+        # first and last frame there); over the tree the walk takes them, anywhere else they pass through.
+        frames = keyconfig.keymaps.new(name="Frames")
         for key, step in (('UP_ARROW', 'PARENT'), ('DOWN_ARROW', 'CHILD'), ('LEFT_ARROW', 'PREVIOUS'),
                           ('RIGHT_ARROW', 'NEXT')):
-            item = keymap.keymap_items.new(RAYLAB_OT_tree_key.bl_idname, key, 'PRESS')
+            item = frames.keymap_items.new(RAYLAB_OT_tree_key.bl_idname, key, 'PRESS')
             item.properties.step = step
-            _keymaps.append((keymap, item))
+            _keymaps.append((frames, item))
 
 
 def unregister():
