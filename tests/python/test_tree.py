@@ -113,8 +113,8 @@ def sah_candidates(vertices, triangles, ids):
     c2 = lo + hi  # twice the centroids, as the builder bins them
     block, visit = raylab.SAH_CONSTANTS["leaf_block"], raylab.SAH_CONSTANTS["node_visit"]
 
-    def half_area(l, h):
-        e = (h - l).astype(np.float64)
+    def half_area(low, high):
+        e = (high - low).astype(np.float64)
         return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
 
     node_area = half_area(lo.min(0), hi.max(0))
