@@ -192,8 +192,11 @@ def trace_round(rng, round_, findings, counts):
     test = "moller_trumbore" if rng.random() < 0.25 else "watertight"
     depth = "auto" if rng.random() < 0.3 else int(rng.integers(0, 9))  # "auto": the octree's default
     settings = dict(max_depth=depth, leaf_size=int(rng.integers(1, 17)), triangle_test=test)
+    builder = str(rng.choice(raylab.BUILDERS))  # the BVH's; the kinds without one build their one way
     try:
-        structures = {s: raylab.build(vertices32, triangles, structure=s, **settings) for s in ("none", *ACCELERATED)}
+        structures = {s: raylab.build(vertices32, triangles, structure=s, **settings,
+                                      **({"builder": builder} if raylab.STRUCTURE_INFO[s]["uses_builder"] else {}))
+                      for s in ("none", *ACCELERATED)}
     except ValueError as error:  # the contract's refusals (e.g. coordinates too large) are fine
         counts["refused_builds"] += 1
         if "Traceback" in str(error) or len(str(error)) > 400:
@@ -221,7 +224,8 @@ def trace_round(rng, round_, findings, counts):
         # Möller–Trumbore is the leaky teaching option: only its t range is part of the contract.
         if name == "none" or test == "moller_trumbore":
             continue
-        problem = compare(f"{name} ({test}, {settings}) on {kind}", hits, reference, kinds)
+        problem = compare(f"{name} ({test}, {settings}, builder {structure.builder}) on {kind}", hits, reference,
+                          kinds)
         if problem:
             findings.add(round_, problem)
         occluded = structure.occluded(origins, directions, tmin=tmin).hit

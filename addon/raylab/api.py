@@ -226,7 +226,10 @@ class Structure:
         SAH's, or the median, spatial_median and lbvh builders' own), axis (-1 without a plane),
         position (NaN without one), candidate (the SAH's: its index in positions[axis], else -1), cost
         (the SAH cost of the split made, or of the leaf), left_triangles (the sorted triangle ids put
-        left). Also node, count, lo and hi (3,). ValueError for kinds other than bvh, or a bad id."""
+        left). Also node, count, lo and hi (3,). ValueError for kinds other than bvh, or a bad id.
+
+        A refitted BVH (refit()) keeps the tree built for the old positions: its split_costs are what
+        the builder would decide over the moved triangles, which the tree may no longer follow."""
         return self.native.split_costs(node)
 
     def mesh(self):

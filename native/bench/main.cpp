@@ -62,6 +62,7 @@ struct Options {
   std::vector<int> threads{1, 2};
   std::vector<std::string> structures = every_structure();
   std::vector<std::string> contracts = every_contract();
+  std::vector<std::string> builders{raylab::bvh_builder_name(raylab::BuildSettings{}.builder)};  // the default
   std::vector<std::string> embree_qualities{"medium", "high"};
   int max_depth = raylab::BuildSettings{}.max_depth, leaf_size = raylab::BuildSettings{}.leaf_size;
 };
@@ -139,6 +140,11 @@ void add_options(CLI::App& app, Options& o) {
                  "named <structure>_fast")
       ->delimiter(',')
       ->check(core_name([](const std::string& name) { contract_from_name(name); }, "CONTRACT"));
+  app.add_option("--builders", o.builders,
+                 "the BVH's builders (sah, median, spatial_median, lbvh), comma-separated; another than the "
+                 "default is named <structure>_<builder>")
+      ->delimiter(',')
+      ->check(core_name([](const std::string& name) { bvh_builder_from_name(name); }, "BUILDER"));
   app.add_option("--embree", o.embree_qualities, "Embree's build qualities, comma-separated")
       ->delimiter(',')
       ->check(CLI::IsMember(kEmbreeQualities));
@@ -539,26 +545,32 @@ int run(const Options& o) {
   };
   std::vector<Built> built;
   for (const std::string& structure : o.structures)
-    for (const std::string& contract_text : o.contracts) {
-      // Each contract of a structure that takes one (bvh, bvh_fast); the exact one of the others.
-      const StructureInfo& info = structure_info(structure);
-      const Contract contract = contract_from_name(contract_text);
-      if (contract != Contract::Exact && !info.uses_contract) continue;
-      const std::string name = contract == Contract::Exact ? structure : structure + "_" + contract_text;
-      std::cerr << "  " << name << "\n";
-      Built b{name, "raylab", info.uses_contract};
-      b.settings.kind = info.kind;
-      b.settings.max_depth = o.max_depth;
-      b.settings.leaf_size = o.leaf_size;
-      b.settings.contract = contract;
-      try {
-        b.structure = build_structure(mesh, b.settings);
-      } catch (const std::exception& e) {  // a structure not written yet, over the memory budget, no AVX2
-        tracers.push_back({{"name", name}, {"kind", "raylab"}, {"contract", contract_text}, {"error", e.what()}});
-        continue;
+    for (const std::string& contract_text : o.contracts)
+      for (const std::string& builder_text : o.builders) {
+        // Each contract of a structure that takes one (bvh, bvh_fast), and each builder of one that takes
+        // one (bvh_median); the defaults of the others.
+        const StructureInfo& info = structure_info(structure);
+        const Contract contract = contract_from_name(contract_text);
+        const BvhBuilder builder = bvh_builder_from_name(builder_text);
+        if (contract != Contract::Exact && !info.uses_contract) continue;
+        if (builder != BuildSettings{}.builder && !info.uses_builder) continue;
+        const std::string name = (contract == Contract::Exact ? structure : structure + "_" + contract_text) +
+                                 (builder == BuildSettings{}.builder ? "" : "_" + builder_text);
+        std::cerr << "  " << name << "\n";
+        Built b{name, "raylab", info.uses_contract};
+        b.settings.kind = info.kind;
+        b.settings.max_depth = o.max_depth;
+        b.settings.leaf_size = o.leaf_size;
+        b.settings.contract = contract;
+        b.settings.builder = builder;
+        try {
+          b.structure = build_structure(mesh, b.settings);
+        } catch (const std::exception& e) {  // a structure not written yet, over the memory budget, no AVX2
+          tracers.push_back({{"name", name}, {"kind", "raylab"}, {"contract", contract_text}, {"error", e.what()}});
+          continue;
+        }
+        built.push_back(std::move(b));
       }
-      built.push_back(std::move(b));
-    }
   for (const std::string& quality : o.embree_qualities) {
     std::cerr << "  embree " << quality << "\n";
     Built b{"embree_" + quality, "embree", true};
@@ -620,6 +632,7 @@ int run(const Options& o) {
         {{"name", b.name},
          {"kind", b.kind},
          {"contract", b.embree ? Json(nullptr) : Json(contract_name(b.settings.contract))},
+         {"builder", b.embree ? Json(nullptr) : Json(bvh_builder_name(b.settings.builder))},
          {"error", nullptr},
          {"build", build_times[i]},
          {"memory_bytes", b.embree ? b.embree->memory_bytes() : b.structure->memory_bytes()},

@@ -18,7 +18,8 @@ BinaryBvh build_over_triangles(const TriangleMesh& mesh, const BuildSettings& se
   const size_t n = mesh.triangle_count();
   // The binary build, then the wide copy (packets of at most about 2x the triangles; 8-wide nodes are
   // half as many as 4-wide ones and twice the size).
-  const size_t needed = binary_bvh_build_bytes(n) + 2 * n * sizeof(TrianglePacket) / 4 + n * sizeof(Bvh4Node) / 2;
+  const size_t needed =
+      binary_bvh_build_bytes(n, settings.builder) + 2 * n * sizeof(TrianglePacket) / 4 + n * sizeof(Bvh4Node) / 2;
   if (needed > settings.memory_budget)
     throw BuildError("bvh: building over " + std::to_string(n) + " triangles needs about " + std::to_string(needed) +
                      " bytes, over the memory budget of " + std::to_string(settings.memory_budget));

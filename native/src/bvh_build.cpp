@@ -811,10 +811,12 @@ class Builder {
 
 }  // namespace
 
-size_t binary_bvh_build_bytes(size_t n) {
+size_t binary_bvh_build_bytes(size_t n, BvhBuilder builder) {
   // References, the local trees (at most 2n nodes), the compacted nodes (at most 2n) and the
-  // primitive order; the slot arrays are mostly never touched.
-  return n * (sizeof(PrimRef) + 4 * sizeof(BvhNode) + sizeof(uint32_t));
+  // primitive order; the slot arrays are mostly never touched. The LBVH's sort adds its keys, the
+  // sorted references and their codes.
+  const size_t morton = builder == BvhBuilder::Lbvh ? sizeof(uint64_t) + sizeof(PrimRef) + sizeof(uint32_t) : 0;
+  return n * (sizeof(PrimRef) + 4 * sizeof(BvhNode) + sizeof(uint32_t) + morton);
 }
 
 namespace {

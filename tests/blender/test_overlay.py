@@ -13,7 +13,7 @@ from mathutils import Matrix
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "addon"))
 import raylab  # noqa: E402
-from raylab.blender import draw, overlay, probe, spin, structure_cache  # noqa: E402
+from raylab.blender import draw, overlay, probe, properties, spin, structure_cache  # noqa: E402
 
 
 @pytest.fixture
@@ -301,3 +301,24 @@ def test_a_new_object_under_an_old_name_gets_its_own_structure(monkey_scene):
     after = structure_cache.structure_for(replacement, scene.raylab).structure
     assert after.mesh()[1].shape[0] == 12  # the cube's triangles, not the monkey's
     assert len(after.boxes()["lo"]) != len(before["lo"])
+
+
+def test_the_builder_menu_builds_the_bvh_it_names_and_other_kinds_ignore_it(monkey_scene):
+    """The Builder menu (both groups, from raylab.BUILDERS) is a build setting: the BVH is rebuilt with it,
+    and a kind without a builder keeps its one build (its cache key does not change)."""
+    scene, monkey = monkey_scene
+    for group in properties.GROUPS:
+        items = bpy.types.Scene.bl_rna.properties[group].fixed_type.properties["builder"].enum_items
+        assert [item.identifier for item in items] == list(raylab.BUILDERS)
+    settings = scene.raylab
+    settings.structure = "bvh"
+    for builder in raylab.BUILDERS:
+        settings.builder = builder
+        bpy.context.view_layer.update()
+        entry = structure_cache.structure_for(monkey, settings)
+        assert entry.structure.builder == builder and entry.structure.tree()["node_count"] > 1
+    settings.structure = "octree"
+    before = structure_cache.structure_for(monkey, settings).structure
+    settings.builder = raylab.BUILDERS[0]
+    bpy.context.view_layer.update()
+    assert structure_cache.structure_for(monkey, settings).structure is before

@@ -85,3 +85,19 @@ def test_octree_and_bvh_agree_on_every_ray(name):
     assert_same_hits(octree.intersect(origins, directions), bvh.intersect(origins, directions), family,
                      f"octree against bvh on {name}")
     assert np.array_equal(octree.occluded(origins, directions).hit, bvh.occluded(origins, directions).hit)
+
+
+SMALL_MESHES = [name for name in MESHES if len(load(name)[1]) <= 20_000]  # the builders' quick pass
+
+
+@pytest.mark.parametrize("name", SMALL_MESHES)
+@pytest.mark.parametrize("builder", [b for b in raylab.BUILDERS if b != raylab.DEFAULTS["builder"]])  # sah above
+def test_every_bvh_builder_equals_brute_force(name, builder):
+    vertices, triangles = load(name)
+    origins, directions, family, checked, reference = case(name)
+    s = raylab.build(vertices, triangles, "bvh", builder=builder)
+    assert s.builder == builder
+    o, d, f = origins[checked], directions[checked], family[checked]
+    assert_same_hits(s.intersect(o, d), reference, f, f"bvh ({builder}) on {name}")
+    assert_same_hits(s.intersect(o, d, count=True), reference, f, f"bvh ({builder}, counting) on {name}")
+    assert np.array_equal(s.occluded(o, d).hit, reference.hit), f"bvh ({builder}) on {name}: any-hit differs"

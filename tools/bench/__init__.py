@@ -4,6 +4,7 @@ accuracy, and play an animation with the BVH refitted against rebuilt.
 
     /usr/bin/python3 -m tools.bench [--quick] [--out out/bench] [--build-dir build]   (from the checkout)
     /usr/bin/python3 -m tools.bench --only animation [--quick]    (the refit experiment alone, a minute)
+    /usr/bin/python3 -m tools.bench --only builders [--quick]     (the BVH's builders side by side, a minute)
 
 Everything is measured in this one run, on this machine, as medians of repetitions; comparisons are
 ratios on the same rays (the machines are shared and noisy: absolute times drift, ratios less).
@@ -11,8 +12,9 @@ Writes <out>/results.json, <out>/results.md and <out>/bench_*.png; the raw per-m
 raylab_bench and Blender stay in <out>/data/.
 
 The modules, one role each: `run` drives raylab_bench and Blender's BVHTree, `experiments` measures
-through the Python API (the thesis render, leaks, self-hits, the animation), `report` writes the Markdown and
-publishes, `charts` draws; this file holds what they share: paths, the two configurations, the log.
+through the Python API (the thesis render, leaks, self-hits, the animation, the builders), `report`
+writes the Markdown and publishes, `charts` draws; this file holds what they share: paths, the two
+configurations, the log.
 """
 import sys
 from pathlib import Path
@@ -34,6 +36,7 @@ FULL = {
     "leaks": {"meshes": ["goathead", "armadillo", "icosphere"], "rays_per_kind": 20000, "reps": 3},
     "self_hits": {"scales": [1e-3, 1e-2, 1e-1, 1, 1e1, 1e2, 1e3, 1e4, 1e5], "width": 96, "height": 72},
     "animation": {"mesh": "bunny_hr", "frames": 48, "camera": 256, "random_rays": 50000, "reps": 3},
+    "builders": {"meshes": ["goathead", "bunny", "dragon"], "camera": 256, "random_rays": 50000, "reps": 5},
 }
 QUICK = {
     "meshes": [("goathead", "goathead.obj")],
@@ -45,6 +48,7 @@ QUICK = {
     "leaks": {"meshes": ["goathead"], "rays_per_kind": 1000, "reps": 1},
     "self_hits": {"scales": [1e-3, 1, 1e5], "width": 24, "height": 18},
     "animation": {"mesh": "bunny_hr", "frames": 24, "camera": 96, "random_rays": 10000, "reps": 5},
+    "builders": {"meshes": ["goathead"], "camera": 64, "random_rays": 5000, "reps": 1},
 }
 
 

@@ -9,8 +9,8 @@ from pathlib import Path
 
 from . import FULL, QUICK, ROOT, __doc__ as package_doc, log
 from .charts import chart_animation, write_charts
-from .experiments import run_animation, run_leaks, run_self_hits, run_thesis
-from .report import animation_markdown, markdown, publish
+from .experiments import run_animation, run_builders, run_leaks, run_self_hits, run_thesis
+from .report import animation_markdown, builders_markdown, markdown, publish
 from .run import bench_binary, run_blender, run_native
 
 
@@ -22,8 +22,9 @@ def main():
     parser.add_argument("--no-blender", action="store_true", help="skip Blender's BVHTree")
     parser.add_argument("--replot", action="store_true",
                         help="redraw the charts and the table from <out>/results.json, measuring nothing")
-    parser.add_argument("--only", choices=["animation"],
-                        help="run one experiment alone: writes <out>/animation.json, .md and bench_animation.png")
+    parser.add_argument("--only", choices=["animation", "builders"],
+                        help="run one experiment alone: writes <out>/animation.json, .md and bench_animation.png, "
+                             "or <out>/builders.json and .md")
     parser.add_argument("--publish", action="store_true",
                         help="copy the charts of a full run into the levels that show them (and the README)")
     args = parser.parse_args()
@@ -48,6 +49,15 @@ def main():
         print(report)
         log(f"done: {out / 'bench_animation.png'}")
         return
+    if args.only == "builders":
+        out.mkdir(parents=True, exist_ok=True)
+        builders = run_builders(config)
+        (out / "builders.json").write_text(json.dumps(builders, indent=1))
+        report = "\n".join(builders_markdown(builders))
+        (out / "builders.md").write_text(report)
+        print(report)
+        log(f"done: {out / 'builders.md'}")
+        return
     data = out / "data"
     data.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -58,13 +68,14 @@ def main():
     leaks = run_leaks(config, data)
     self_hits = run_self_hits(config)
     animation = run_animation(config)
+    builders = run_builders(config)
     first = next(iter(native.values()))
     results = {"configuration": "quick" if args.quick else "full",
                "machine": {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
                            "hardware_threads": first["hardware_threads"], "embree": first["embree_version"],
                            "platform": platform.platform()},
                "meshes": native, "blender": blender, "thesis": thesis, "leaks": leaks, "self_hits": self_hits,
-               "animation": animation}
+               "animation": animation, "builders": builders}
     results["charts"] = write_charts(results, out)
     results["seconds_total"] = time.perf_counter() - started
     (out / "results.json").write_text(json.dumps(results, indent=1))

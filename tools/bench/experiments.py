@@ -326,3 +326,40 @@ def run_animation(config):
         all_hits_equal=all(r["same_hits"] for r in rows))
     return {"mesh": cfg["mesh"], "triangles": len(T), "frames": frames, "rays": len(origins),
             "animation": "raylab.animation.twist_wave", "rows": rows, "summary": summary}
+
+
+def run_builders(config):
+    """The BVH's builders side by side (raylab.BUILDERS) on each mesh: build seconds (the core's timer,
+    median of the repetitions, on the threads the process may use), the SAH cost, and per ray the
+    triangle tests and nodes visited (closest hit, counted) of camera rays and random rays, with the
+    camera rays' one-thread trace seconds. Every builder's hits are checked against the default's."""
+    from raylab import rays
+
+    cfg = config["builders"]
+    out = []
+    for name in cfg["meshes"]:
+        V, T = raylab.load_mesh(MESH_DIR / f"{name}.obj")
+        sets = {"camera": rays.camera_rays(V, cfg["camera"]),
+                "random": rays.random_rays(V, cfg["random_rays"], np.random.default_rng(2))}
+        reference = None
+        for builder in raylab.BUILDERS:
+            builds = [raylab.build(V, T, builder=builder) for _ in range(cfg["reps"])]
+            s = builds[-1]
+            row = dict(mesh=name, triangles=len(T), builder=builder,
+                       build_seconds=statistics.median(b.build_seconds for b in builds), sah_cost=s.sah_cost(),
+                       nodes=s.tree()["node_count"], memory_bytes=s.memory_bytes)
+            for kind, (origins, directions) in sets.items():
+                hits = s.intersect(origins, directions, count=True, threads=1)
+                n = hits.stats["rays"]
+                row[f"{kind}_triangle_tests_per_ray"] = hits.stats["triangle_tests"] / n
+                row[f"{kind}_nodes_per_ray"] = hits.stats["nodes_visited"] / n
+                if reference is None or kind not in reference:
+                    reference = (reference or {}) | {kind: hits}
+                row[f"{kind}_same_hits"] = bool(np.array_equal(hits.triangle, reference[kind].triangle) and
+                                                np.array_equal(hits.t, reference[kind].t))
+            origins, directions = sets["camera"]
+            row["camera_trace_seconds"] = _median_seconds(lambda: s.intersect(origins, directions, threads=1),
+                                                          cfg["reps"])
+            out.append(row)
+        log(f"builders on {name} done")
+    return {"rows": out, "camera": cfg["camera"], "random_rays": cfg["random_rays"], "reps": cfg["reps"]}

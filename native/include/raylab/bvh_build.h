@@ -132,6 +132,6 @@ SplitCosts explain_split(uint32_t count, const BoundsSource& bounds_of, std::spa
                          uint32_t max_leaf_size, uint32_t leaf_block, BvhBuilder builder);
 
 // The bytes build_binary_bvh needs at most for n primitives, for checking a memory budget first.
-size_t binary_bvh_build_bytes(size_t n);
+size_t binary_bvh_build_bytes(size_t n, BvhBuilder builder = BvhBuilder::Sah);
 
 }  // namespace raylab

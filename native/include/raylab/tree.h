@@ -34,7 +34,8 @@ std::optional<StructureTree> structure_tree(const Structure& s);
 // The split decision of BVH node `node` (a tree() id): explain_split over its triangles with the
 // build's own builder, settings and binary depth. The wide BVH is a binary tree collapsed: a wide inner
 // node is the binary node at its top, whose split decides which of its children lie left (a prefix of
-// them); a leaf is a binary leaf. Throws std::invalid_argument for another kind or a bad id.
+// them); a leaf is a binary leaf. A refitted BVH keeps the tree of the old positions: this is what the
+// builder would decide over the moved ones. Throws std::invalid_argument for another kind or a bad id.
 SplitCosts structure_split_costs(const Structure& s, uint32_t node);
 
 }  // namespace raylab
