@@ -582,8 +582,8 @@ class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
         row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Costliest").step = 'COSTLIEST'
         row = layout.row(align=True)
         row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Root").step = 'ROOT'
-        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Focus Here").step = 'FOCUS'
-        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Whole Tree").step = 'UNFOCUS'
+        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Focus").step = 'FOCUS'
+        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="All").step = 'UNFOCUS'
         splits = tree._splits.get(node)
         if splits is not None and splits["axis"] >= 0:
             method = api.SPLIT_METHOD_INFO[splits["method"]]["description"]
