@@ -132,7 +132,14 @@ class Tree:
         return self._splits[node]
 
 
-_trees = {}  # object name -> Tree
+class NoTree:
+    """What a structure without a tree gives: why (the core's words)."""
+
+    def __init__(self, key, why):
+        self.key, self.why = key, why
+
+
+_trees = {}  # object name -> Tree or NoTree
 
 
 def target(context):
@@ -153,18 +160,24 @@ def tree_of(obj, entry, scene):
     """The Tree of the object's structure, read from the core once per build, with the SAH builder's cost
     on the same mesh beside it (calls the core: never from a panel's draw)."""
     tree = _trees.get(obj.name_full)
-    if tree is None or tree.key != entry.key:
+    if tree is not None and tree.key == entry.key:
+        if isinstance(tree, NoTree):
+            raise ValueError(tree.why)
+        _last_read[scene.name_full] = tree
+        return tree
+    try:
         tree = _trees[obj.name_full] = Tree(entry.key, entry.structure)
-        tree.cost = entry.structure.sah_cost()
-        if tree.cost is None:  # a kind without an SAH cost
-            pass
-        elif entry.structure.builder == api.DEFAULTS["builder"]:
-            tree.sah_reference = tree.cost
-        else:  # the same mesh and settings, the default builder
-            vertices, triangles = entry.structure.mesh()
-            reference = api.build(vertices, triangles, structure=tree.kind, leaf_size=entry.structure.leaf_size,
-                                  contract=entry.structure.contract)
-            tree.sah_reference = reference.sah_cost()
+    except ValueError as error:  # a kind without a tree (the AABB, the grid): said once per build
+        _trees[obj.name_full] = NoTree(entry.key, str(error))
+        raise
+    tree.cost = entry.structure.sah_cost()  # None for a kind without an SAH cost
+    if tree.cost is not None and entry.structure.builder == api.DEFAULTS["builder"]:
+        tree.sah_reference = tree.cost
+    elif tree.cost is not None:  # the same mesh and settings, the default builder
+        vertices, triangles = entry.structure.mesh()
+        reference = api.build(vertices, triangles, structure=tree.kind, leaf_size=entry.structure.leaf_size,
+                              contract=entry.structure.contract)
+        tree.sah_reference = reference.sah_cost()
     _last_read[scene.name_full] = tree
     return tree
 
@@ -204,6 +217,8 @@ def known_tree(context):
     tree = _trees.get(obj.name_full)
     if tree is None or tree.key != entry.key:
         return None, "The tree is read when the viewport draws"
+    if isinstance(tree, NoTree):
+        return None, tree.why
     return obj, tree
 
 
@@ -259,7 +274,11 @@ def _draw_tree_view():
     if obj is None:
         _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, entry)
         return
-    tree = tree_of(obj, entry, context.scene)
+    try:
+        tree = tree_of(obj, entry, context.scene)
+    except ValueError as error:
+        _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, str(error))
+        return
     picked = tree.node(settings.node)
     focus = shown_focus(tree, tree.node(settings.focus), picked, settings.levels)
     picture = tree.picture(focus, settings.levels)
@@ -396,7 +415,10 @@ def _draw_picked_boxes():
     obj, entry = target(context)
     if obj is None:
         return
-    tree = tree_of(obj, entry, context.scene)
+    try:
+        tree = tree_of(obj, entry, context.scene)
+    except ValueError:
+        return  # the tree view's frame says why
     picked = tree.node(settings.node)
     xray = context.scene.raylab.xray
     matrix = entry.model_matrix(obj)
@@ -469,7 +491,11 @@ class RAYLAB_OT_tree_walk(bpy.types.Operator):
             self.report({'WARNING'}, f"raylab: {entry}")
             return {'CANCELLED'}
         settings = context.scene.raylab_tree
-        tree = tree_of(obj, entry, context.scene)
+        try:
+            tree = tree_of(obj, entry, context.scene)
+        except ValueError as error:
+            self.report({'WARNING'}, f"raylab: {error}")
+            return {'CANCELLED'}
         node = tree.node(settings.node)
         if self.child >= 0:
             kids = tree.children(node)

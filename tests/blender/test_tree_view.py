@@ -1,0 +1,108 @@
+"""The tree view's model inside Blender (no window: the drawing is tests/gui/test_student_gui.py's): walking
+the tree with the panel's buttons, what the panel says of a node, the Split Explorer's boxes, the cost
+against the SAH builder's, and the kinds without a tree."""
+import bpy
+import numpy as np
+import pytest
+
+from raylab.blender import levels, structure_cache, tree_view
+
+
+@pytest.fixture
+def why_sah():
+    before = bpy.context.window.scene
+    scene = levels.open_level(bpy.context, "why_sah")
+    structure_cache.scene_model(scene)
+    yield scene
+    bpy.context.window.scene = before  # as the other test files expect it: their scene, no level scenes
+    for level_scene in [s for s in bpy.data.scenes if levels.state(s) is not None]:
+        levels._remove_scene(level_scene)
+
+
+def walk(step, **more):
+    return bpy.ops.raylab.tree_walk(step=step, **more)
+
+
+def the_tree(scene):
+    obj, entry = tree_view.target(bpy.context)
+    return tree_view.tree_of(obj, entry, scene)
+
+
+def test_the_buttons_walk_to_the_parent_the_children_and_the_siblings(why_sah):
+    settings = why_sah.raylab_tree
+    assert walk('ROOT') == {'FINISHED'} and settings.node == 0
+    tree = the_tree(why_sah)
+    kids = tree.children(0)
+    assert len(kids) >= 2 and (tree.parent[kids] == 0).all()
+    walk('CHILD')
+    assert settings.node == kids[0]
+    walk('NEXT')
+    assert settings.node == kids[1]
+    walk('PREVIOUS')
+    walk('PREVIOUS')  # no sibling before the first: it stays
+    assert settings.node == kids[0]
+    walk('PARENT')
+    walk('PARENT')  # the root has no parent: it stays
+    assert settings.node == 0
+    walk('PARENT', child=2)
+    assert settings.node == kids[2]
+    walk('ROOT')
+    walk('COSTLIEST')
+    assert settings.node == kids[np.argmax(tree.sah_cost[kids])]
+
+
+def test_the_costliest_path_ends_at_a_leaf_and_ticks_the_property(why_sah):
+    settings = why_sah.raylab_tree
+    walk('ROOT')
+    assert not settings.picked_costliest
+    tree = the_tree(why_sah)
+    for _ in range(64):
+        walk('COSTLIEST')
+    assert tree.children.count(settings.node) == 0 and settings.picked_costliest
+
+
+def test_the_panel_tells_a_node_s_depth_triangles_area_and_share_of_the_cost(why_sah):
+    walk('ROOT')
+    tree = the_tree(why_sah)
+    texts = [text for text, _ in tree_view.node_lines(tree, 0)]
+    assert texts[0].startswith("Node 0: depth 0, inner node")
+    assert f"{int(tree.triangle_count[0]):,} triangles" in texts[1]
+    assert "100.0% of the root's" in texts[2]
+    assert sum(tree.sah_cost) == pytest.approx(tree.cost)  # the shares add up to the tree's cost
+    leaf = int(np.flatnonzero([tree.children.count(n) == 0 for n in range(len(tree))])[0])
+    assert "leaf" in tree_view.node_lines(tree, leaf)[0][0]
+
+
+def test_the_split_explorer_s_child_boxes_make_up_the_node_s_box(why_sah):
+    obj, entry = tree_view.target(bpy.context)
+    tree = the_tree(why_sah)
+    for node in [0, *tree.children(0)[:3]]:
+        splits = tree.splits(int(node), entry.structure)
+        if splits is None:
+            continue
+        (llo, lhi), (rlo, rhi) = splits["child_boxes"]
+        assert np.allclose(np.minimum(llo, rlo), tree.lo[node]) and np.allclose(np.maximum(lhi, rhi), tree.hi[node])
+        assert 0.0 <= splits["across_chosen"] <= 1.0 and splits["axis"] in (0, 1, 2)
+        assert np.nanmin(splits["costs"][splits["axis"]]) == pytest.approx(splits["cost"], rel=1e-5)
+
+
+def test_another_builder_s_tree_is_priced_against_the_sah_builder_s(why_sah):
+    walk('ROOT')
+    assert why_sah.raylab_tree.cost_over_sah == pytest.approx(1.0)
+    why_sah.raylab.builder = "median"
+    structure_cache.scene_model(why_sah)
+    walk('ROOT')
+    assert why_sah.raylab_tree.cost_over_sah > 1.05  # the object median's tree costs more on the teapot
+
+
+def test_the_octree_has_a_tree_without_an_sah_and_the_grid_says_it_has_none(why_sah):
+    why_sah.raylab.structure = "octree"
+    structure_cache.scene_model(why_sah)
+    assert walk('CHILD') == {'FINISHED'}
+    tree = the_tree(why_sah)
+    assert not tree.has_sah and all("SAH" not in text for text, _ in tree_view.node_lines(tree, 0))
+    why_sah.raylab.structure = "grid"
+    structure_cache.scene_model(why_sah)
+    assert walk('CHILD') == {'CANCELLED'}
+    obj, why = tree_view.known_tree(bpy.context)
+    assert obj is None and "no tree" in why
