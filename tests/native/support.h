@@ -25,6 +25,21 @@ inline MeshPtr mesh_of(std::vector<glm::vec3> vertices, std::vector<glm::uvec3> 
 }
 
 // A mesh of addon/raylab/meshes/, e.g. "bunny.obj".
+// A flat grid of 2 n^2 triangles in z = 0: centroids tie along every axis (degenerate boxes, the median
+// and Morton builders' ties).
+inline MeshPtr flat_grid(int n) {
+  auto mesh = std::make_shared<TriangleMesh>();
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) mesh->vertices.push_back({float(x) / n, float(y) / n, 0.0f});
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const uint32_t a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
+      mesh->triangles.push_back({a, b, d});
+      mesh->triangles.push_back({a, d, c});
+    }
+  return mesh;
+}
+
 inline MeshPtr shipped(const std::string& name) {
   return std::make_shared<TriangleMesh>(load_mesh(std::string(RAYLAB_MESH_DIR) + "/" + name));
 }

@@ -1,5 +1,6 @@
 #include "bvh.h"
 #include "raylab/mesh_io.h"
+#include "support.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -12,6 +13,7 @@
 #include <utility>
 
 using namespace raylab;
+using raylab::test::flat_grid;
 
 namespace {
 
@@ -236,16 +238,8 @@ TEST(BvhDegenerate, IdenticalTrianglesTerminateAndKeepTheLowestIndex) {
 }
 
 TEST(BvhDegenerate, FlatGridMatchesBruteForce) {
-  auto mesh = std::make_shared<TriangleMesh>();
   const int n = 40;
-  for (int y = 0; y <= n; ++y)
-    for (int x = 0; x <= n; ++x) mesh->vertices.push_back({float(x) / n, float(y) / n, 0.0f});
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      const uint32_t a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
-      mesh->triangles.push_back({a, b, d});
-      mesh->triangles.push_back({a, d, c});
-    }
+  const MeshPtr mesh = flat_grid(n);
   const auto s = build_structure(mesh, settings_for(StructureKind::Bvh));
   expect_well_formed(as_bvh(*s), 8);
   expect_same_as_brute_force(*s, random_rays(mesh->bounds(), 3000, 11));

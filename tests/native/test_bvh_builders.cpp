@@ -30,20 +30,6 @@ std::vector<uint32_t> sorted(std::vector<uint32_t> v) {
   return v;
 }
 
-// A flat grid of 2 n^2 triangles: centroids tie along every axis, the median and Morton builders' ties.
-MeshPtr flat_grid(int n) {
-  auto mesh = std::make_shared<TriangleMesh>();
-  for (int y = 0; y <= n; ++y)
-    for (int x = 0; x <= n; ++x) mesh->vertices.push_back({float(x) / n, float(y) / n, 0.0f});
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      const uint32_t a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
-      mesh->triangles.push_back({a, b, d});
-      mesh->triangles.push_back({a, d, c});
-    }
-  return mesh;
-}
-
 MeshPtr identical_triangles() {
   auto mesh = std::make_shared<TriangleMesh>();
   mesh->vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
