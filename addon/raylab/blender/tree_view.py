@@ -67,7 +67,7 @@ class Tree:
     def __init__(self, key, structure):
         self.key = key
         self.kind = structure.structure
-        arrays = structure.tree()
+        arrays = grid_tree(structure.boxes()) if self.kind == "grid" else structure.tree()
         self.parent = np.asarray(arrays["parent"], dtype=np.int64)
         self.depth = np.asarray(arrays["depth"])
         self.lo, self.hi = np.asarray(arrays["lo"]), np.asarray(arrays["hi"])
@@ -132,6 +132,18 @@ class Tree:
         return self._splits[node]
 
 
+def grid_tree(boxes):
+    """The grid as a tree of one level (the core gives it none: its cells are not nested): the grid's box,
+    then its occupied cells, the fullest first. Node ids are this order, not boxes()'s."""
+    cells = np.flatnonzero(boxes["depth"] > 0)
+    order = np.concatenate([np.flatnonzero(boxes["depth"] == 0)[:1],
+                            cells[np.argsort(-boxes["triangle_count"][cells], kind="stable")]])
+    parent = np.zeros(len(order), dtype=np.int32)
+    parent[0] = -1
+    return dict(parent=parent, depth=boxes["depth"][order], lo=boxes["lo"][order], hi=boxes["hi"][order],
+                triangle_count=boxes["triangle_count"][order], sah_cost=None)
+
+
 class NoTree:
     """What a structure without a tree gives: why (the core's words)."""
 
@@ -167,7 +179,7 @@ def tree_of(obj, entry, scene):
         return tree
     try:
         tree = _trees[obj.name_full] = Tree(entry.key, entry.structure)
-    except ValueError as error:  # a kind without a tree (the AABB, the grid): said once per build
+    except ValueError as error:  # a kind without a tree (the AABB): said once per build
         _trees[obj.name_full] = NoTree(entry.key, str(error))
         raise
     tree.cost = entry.structure.sah_cost()  # None for a kind without an SAH cost
