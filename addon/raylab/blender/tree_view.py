@@ -136,6 +136,11 @@ class Tree:
             self._splits[node] = splits
         return self._splits[node]
 
+    def known_splits(self, node):
+        """The splits of `node` as splits() made them, or None when not yet made (draws must not make them:
+        the core lets go of the interpreter lock)."""
+        return self._splits.get(node)
+
 
 def grid_tree(boxes):
     """The grid as a tree of one level (the core gives it none: its cells are not nested): the grid's box,
@@ -216,7 +221,7 @@ def _split_shown(scene):
     tree = _last_read.get(scene.name_full)
     settings = scene.raylab_tree
     return (tree is not None and settings.enabled and settings.explorer
-            and tree._splits.get(tree.node(settings.node)) is not None)
+            and tree.known_splits(tree.node(settings.node)) is not None)
 
 
 def _cost_over_sah(scene):
@@ -625,7 +630,7 @@ class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
         row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Root").step = 'ROOT'
         row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Focus").step = 'FOCUS'
         row.operator(RAYLAB_OT_tree_walk.bl_idname, text="All").step = 'UNFOCUS'
-        splits = tree._splits.get(node)
+        splits = tree.known_splits(node)
         if splits is not None and splits["axis"] >= 0:
             method = api.SPLIT_METHOD_INFO[splits["method"]]["description"]
             text_fit.label(layout, context, f"Split along {'xyz'[splits['axis']]}, {splits['across_chosen']:.0%} "
