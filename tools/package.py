@@ -9,6 +9,9 @@
         `wheels` in blender_manifest.toml. Made and checked by Blender's own `extension build` and
         `extension validate` (a Blender 4.2+ here, or the cached sid root's 5.2); Blender installs the
         wheel that matches its Python.
+    out/raylab-<version>-linux-arm64.zip, out/wheels/...manylinux_2_34_aarch64.whl (with --arm64)
+        the same for Linux arm64, from the module ./raylab test --arch arm64 cross-built and tested; each
+        extension's manifest lists its one platform and only that platform's wheels.
     out/raylab-<version>-addon-linux-x64.zip
         the legacy add-on for Blender 3.x (a raylab/ folder, the modules loose in it, libs/cpXY/).
 
@@ -44,6 +47,14 @@ SKIP_DIRS = {"__pycache__"}
 BASE_LIBRARIES = re.compile(r"^(linux-vdso|ld-linux.*|libc|libm|libpthread|libdl|librt|libstdc\+\+|libgcc_s|"
                             r"libpython\d\.\d+)\.so")
 PLATFORM = "linux-x64"
+# The Linux architectures raylab's wheels are built for: Blender's platform name, the objdump that reads
+# their symbol versions, and for one that is not the host's the cached root (tools/debian_root.sh, run
+# through qemu-user) whose loader resolves its libraries. ELF_MACHINES: e_machine in an ELF header.
+ARCHES = {"x86_64": {"platform": "linux-x64", "objdump": "objdump", "root": None},
+          "aarch64": {"platform": "linux-arm64", "objdump": "aarch64-linux-gnu-objdump", "root": "debian12-arm64"}}
+ELF_MACHINES = {0x3E: "x86_64", 0xB7: "aarch64"}
+# The arm64 module as ./raylab test --arch arm64 cross-builds (for the arm64 root's Python 3.11).
+ARM64_MODULE = os.path.join(ROOT, "build-arm64", "addon", "raylab", "_raylab.cpython-311-aarch64-linux-gnu.so")
 # The newest symbol versions any shipped library may need (Debian 12's toolchain: glibc 2.36 whose
 # pthread symbols moved into libc in 2.34, GCC 12's libstdc++ used up to GCC 11's symbols). Systems at or
 # above it: Debian 12+, Ubuntu 22.04+, RHEL/Rocky 9+, Fedora 35+. The README states it; tests check both.
@@ -79,9 +90,30 @@ def addon_version():
     raise SystemExit("package: no bl_info in addon/raylab/__init__.py")
 
 
+def elf_arch(path):
+    """"x86_64" or "aarch64": the machine an ELF file is built for (its header's e_machine)."""
+    with open(path, "rb") as file:
+        header = file.read(20)
+    if header[:4] != b"\x7fELF" or int.from_bytes(header[18:20], "little") not in ELF_MACHINES:
+        raise SystemExit(f"package: {path} is not an ELF file of {', '.join(ARCHES)}")
+    return ELF_MACHINES[int.from_bytes(header[18:20], "little")]
+
+
+def ldd(path):
+    """(ldd's output for `path`, the folder its paths are relative to): the host's ldd, or for another
+    architecture the one of its root, run there (qemu-user); `path` must then lie inside the checkout."""
+    root = ARCHES[elf_arch(path)]["root"]
+    if root is None:
+        return subprocess.run(["ldd", path], capture_output=True, text=True, check=True).stdout, ""
+    inside = "/raylab/" + os.path.relpath(os.path.abspath(path), ROOT)
+    run = subprocess.run([os.path.join(ROOT, "tools", "debian_root.sh"), "run", root, "ldd", inside],
+                         capture_output=True, text=True, check=True)
+    return run.stdout, os.path.join(ROOTS, root)
+
+
 def linked_libraries(path):
     """{soname: resolved path} of everything `path` loads (ldd: the whole closure); exits on 'not found'."""
-    output = subprocess.run(["ldd", path], capture_output=True, text=True, check=True).stdout
+    output, prefix = ldd(path)
     libraries = {}
     for line in output.splitlines():
         match = re.match(r"\s*(\S+) => (.*?)(?: \(0x[0-9a-f]+\))?$", line)
@@ -90,14 +122,15 @@ def linked_libraries(path):
         name, target = match.groups()
         if target == "not found":
             raise SystemExit(f"package: {os.path.basename(path)} needs {name}, which is not installed")
-        libraries[name] = target
+        libraries[name] = prefix + target
     return libraries
 
 
 def symbol_versions(path):
     """{"GLIBC": (2, 34), "GLIBCXX": (3, 4, 29), ...}: the newest version of each library's symbols that
     the ELF file `path` needs (objdump's dynamic symbol table)."""
-    output = subprocess.run(["objdump", "-T", path], capture_output=True, text=True, check=True).stdout
+    objdump = ARCHES[elf_arch(path)]["objdump"]
+    output = subprocess.run([objdump, "-T", path], capture_output=True, text=True, check=True).stdout
     newest = {}
     for library, version in re.findall(r"\b(GLIBC|GLIBCXX|CXXABI)_(\d+(?:\.\d+)*)\b", output):
         number = tuple(int(part) for part in version.split("."))
@@ -205,15 +238,19 @@ def other_python_module(version):
     return os.path.join(work, "module", "_raylab" + suffix)
 
 
-def modules(all_pythons):
-    """{python version: module path}: this Python's, and with all_pythons every other one raylab serves."""
+def modules(all_pythons, arm64):
+    """[(python version, module path)]: this Python's, with all_pythons every other one raylab serves on
+    x86-64, with arm64 the arm64 root's (3.11) as ./raylab test --arch arm64 built and tested it."""
     running = f"{sys.version_info[0]}.{sys.version_info[1]}"
-    found = {running: this_python_module()}
+    found = [(running, this_python_module())]
     if all_pythons:
-        for version in PYTHON_ROOTS:
-            if version != running:
-                found[version] = other_python_module(version)
-    return found
+        found += [(version, other_python_module(version)) for version in PYTHON_ROOTS if version != running]
+    if arm64:
+        if not os.path.exists(ARM64_MODULE):
+            raise SystemExit(f"package: {os.path.relpath(ARM64_MODULE, ROOT)} is missing: "
+                             "run ./raylab test --arch arm64")
+        found.append(("3.11", ARM64_MODULE))
+    return sorted(found)
 
 
 # --- the wheels --------------------------------------------------------------------------------------
@@ -224,16 +261,16 @@ def library_files():
 
 
 def make_wheel(version, module, out_dir, release):
-    """out/wheels/raylab_core-<version>-cpXY-cpXY-manylinux_A_B_x86_64.whl for one module, tagged with the
+    """out/wheels/raylab_core-<version>-cpXY-cpXY-manylinux_A_B_ARCH.whl for one module, tagged with the
     glibc it needs (WHEEL_PLATFORM for a release; a root's own build, for its tests, needs its newer
     glibc and says so); returns its path and the bundled libraries."""
     tag = tag_of(version)
-    stage = os.path.join(out_dir, "wheel-stage", tag)
+    stage = os.path.join(out_dir, "wheel-stage", f"{tag}-{elf_arch(module)}")
     shutil.rmtree(stage, ignore_errors=True)
     core = os.path.join(stage, "raylab_core")
     os.makedirs(core)
     renamed, glibc = bundle(module, core, "libs", release)
-    platform = f"manylinux_{glibc[0]}_{glibc[1]}_x86_64"
+    platform = f"manylinux_{glibc[0]}_{glibc[1]}_{elf_arch(module)}"
     with open(os.path.join(core, "__init__.py"), "w") as file:
         file.write('"""raylab\'s native core (`raylab_core._raylab`); the API is `import raylab`."""\n')
     os.makedirs(os.path.join(stage, "raylab"))
@@ -264,8 +301,13 @@ def make_wheel(version, module, out_dir, release):
 
 # --- the extension and the legacy add-on -------------------------------------------------------------
 
-def manifest(version, wheels):
-    """blender_manifest.toml (schema 1.0.0) of the extension."""
+def wheel_platform(wheel):
+    """Blender's platform name of a wheel: "linux-x64" for ..._x86_64.whl, "linux-arm64" for ..._aarch64.whl."""
+    return ARCHES[re.search(r"_(x86_64|aarch64)\.whl$", wheel)[1]]["platform"]
+
+
+def manifest(version, wheels, platform):
+    """blender_manifest.toml (schema 1.0.0) of the extension for `platform`, with its wheels."""
     listed = ",\n  ".join(f'"./wheels/{os.path.basename(w)}"' for w in wheels)
     copyright_lines = ",\n  ".join(f'"{line}"' for line in COPYRIGHT)
     return f'''schema_version = "1.0.0"
@@ -284,7 +326,7 @@ license = ["SPDX:GPL-3.0-or-later"]
 copyright = [
   {copyright_lines},
 ]
-platforms = ["{PLATFORM}"]
+platforms = ["{platform}"]
 # The native core, one wheel per Python (Blender installs the one matching its own).
 wheels = [
   {listed},
@@ -343,9 +385,10 @@ def extension_blender(paths):
     return None
 
 
-def build_extension(out_dir, version, wheels):
-    """Stages the extension and has Blender build and validate it; returns (zip, validate's output or None)."""
-    stage = os.path.join(out_dir, "extension-stage")
+def build_extension(out_dir, version, wheels, platform):
+    """Stages the extension for `platform` and has Blender build and validate it; returns (zip, validate's
+    output or None)."""
+    stage = os.path.join(out_dir, "extension-stage", platform)
     shutil.rmtree(stage, ignore_errors=True)
     copy_tree(ADDON, stage, skip=development_file)
     if os.path.isdir(LEVELS):
@@ -355,8 +398,8 @@ def build_extension(out_dir, version, wheels):
     for wheel in wheels:
         shutil.copy2(wheel, os.path.join(stage, "wheels"))
     with open(os.path.join(stage, "blender_manifest.toml"), "w") as file:
-        file.write(manifest(version, wheels))
-    target = os.path.join(out_dir, f"raylab-{version}-{PLATFORM}.zip")
+        file.write(manifest(version, wheels, platform))
+    target = os.path.join(out_dir, f"raylab-{version}-{platform}.zip")
     if os.path.exists(target):
         os.remove(target)
     blender = extension_blender([stage, target])
@@ -381,10 +424,11 @@ def build_extension(out_dir, version, wheels):
 
 
 def write_legacy(out_dir, version, modules_by_version):
-    """The add-on zip for Blender 3.x: the modules loose in raylab/, their libraries in libs/cpXY/."""
+    """The add-on zip for Blender 3.x (x86-64: no Blender 3.x of another platform is served): the modules
+    loose in raylab/, their libraries in libs/cpXY/."""
     stage = os.path.join(out_dir, "legacy-stage")
     shutil.rmtree(stage, ignore_errors=True)
-    for version_, module in modules_by_version.items():
+    for version_, module in modules_by_version:
         bundle(module, stage, f"libs/{tag_of(version_)}", release=False)
     target = os.path.join(out_dir, f"raylab-{version}-addon-{PLATFORM}.zip")
     with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as zf:
@@ -402,29 +446,39 @@ def main():
     parser.add_argument("--all-pythons", action="store_true",
                         help=f"also build the modules of Python {', '.join(PYTHON_ROOTS)} with the cached roots' "
                              "headers")
+    parser.add_argument("--arm64", action="store_true",
+                        help="also the Linux arm64 wheel and extension, from the module that "
+                             "./raylab test --arch arm64 built")
     args = parser.parse_args()
     out_dir = os.path.abspath(args.out)
     version = addon_version()
-    found = modules(args.all_pythons)
+    found = modules(args.all_pythons, args.arm64)
     if os.path.isdir(os.path.join(out_dir, "wheels")):
         shutil.rmtree(os.path.join(out_dir, "wheels"))
     wheels = []
-    for python, module in sorted(found.items()):
+    for python, module in found:
         wheel, renamed = make_wheel(python, module, out_dir, release=args.all_pythons)
         wheels.append(wheel)
         needs = symbol_versions(module)
         print(f"package: {os.path.basename(wheel)} (Python {python}; needs "
               + ", ".join(f"{k}_{'.'.join(map(str, v))}" for k, v in sorted(needs.items()))
               + f"; bundles {', '.join(renamed.values()) or 'nothing'})")
-    extension, report = build_extension(out_dir, version, wheels)
-    legacy = write_legacy(out_dir, version, found)
+    extensions = {}  # one per platform built, each listing that platform and its wheels only
+    for platform in sorted({wheel_platform(w) for w in wheels}):
+        mine = [w for w in wheels if wheel_platform(w) == platform]
+        extension, report = build_extension(out_dir, version, mine, platform)
+        extensions[platform] = {"zip": os.path.basename(extension), "validate": report,
+                                "wheels": [os.path.basename(w) for w in mine]}
+        print(f"package: {platform} extension validate: "
+              f"{report if report is not None else 'not run (no Blender 4.2+ here)'}")
+        print(f"package: wrote {extension} ({os.path.getsize(extension) / 1e6:.1f} MB)")
+    legacy = write_legacy(out_dir, version, [(v, m) for v, m in found if elf_arch(m) == "x86_64"])
+    print(f"package: wrote {legacy} ({os.path.getsize(legacy) / 1e6:.1f} MB)")
+    host = extensions[PLATFORM]
     with open(os.path.join(out_dir, "package.json"), "w") as file:
         json.dump({"version": version, "wheels": [os.path.basename(w) for w in wheels],
-                   "extension": os.path.basename(extension), "legacy": os.path.basename(legacy),
-                   "validate": report, "system": os_release()}, file, indent=2)
-    print(f"package: extension validate: {report if report is not None else 'not run (no Blender 4.2+ here)'}")
-    for path in (extension, legacy):
-        print(f"package: wrote {path} ({os.path.getsize(path) / 1e6:.1f} MB)")
+                   "extension": host["zip"], "validate": host["validate"], "extensions": extensions,
+                   "legacy": os.path.basename(legacy), "system": os_release()}, file, indent=2)
 
 
 if __name__ == "__main__":
