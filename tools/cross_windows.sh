@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# The core and its C++ tests for Windows x64, cross-compiled with Debian's mingw-w64 and run under wine64;
+# then the Python module (.pyd) for CPython 3.11 on Windows, built but not run (no Windows Python here).
+#
+#   tools/cross_windows.sh [--no-tests] [--no-module]      (./raylab test --windows runs it)
+#
+# Made once and cached in $RAYLAB_ROOTS (/var/cache/raylab): oneTBB built from Debian's own source
+# package with this toolchain, GoogleTest from Debian's /usr/src/googletest, the wine prefix, CPython's
+# Windows headers. GLM and nlohmann-json are the host's headers (header-only). No OpenImageIO: the
+# Windows build has RAYLAB_IMAGE_IO off (no C++ test uses it).
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+ROOTS="${RAYLAB_ROOTS:-/var/cache/raylab}"
+BUILD="${RAYLAB_WINDOWS_BUILD_DIR:-$ROOT/build-windows}"
+TOOLCHAIN="$ROOT/tools/cmake/windows-x64-mingw.cmake"
+CXX=x86_64-w64-mingw32-g++-posix
+die() { echo "cross_windows: $*" >&2; exit 1; }
+tests=1 module=1
+for a in "$@"; do
+  case $a in
+    --no-tests) tests=0 ;;
+    --no-module) module=0 ;;
+    *) die "unknown argument $a" ;;
+  esac
+done
+command -v $CXX >/dev/null || die "needs g++-mingw-w64-x86-64-posix (./raylab test --windows installs it)"
+command -v wine >/dev/null || die "needs wine64 and wine (./raylab test --windows installs them)"
+
+tbb_version=$(dpkg-query -W -f='${source:Version}' libtbb-dev 2>/dev/null) || die "libtbb-dev is not installed"
+DEPS="$ROOTS/windows-x64-deps-tbb$tbb_version"
+export RAYLAB_WINDOWS_DEPS="$DEPS"
+mkdir -p "$ROOTS"
+
+# A CMake project configured, built and installed into $DEPS with the Windows toolchain.
+cross_install() {  # SOURCE BUILD [cmake arguments...]
+  local src=$1 build=$2
+  shift 2
+  cmake -S "$src" -B "$build" -G Ninja -DCMAKE_TOOLCHAIN_FILE="$TOOLCHAIN" -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_INSTALL_PREFIX="$DEPS.partial" "$@" >/dev/null
+  cmake --build "$build" -- -j"$(nproc)" >/dev/null
+  cmake --install "$build" >/dev/null
+}
+
+if [ ! -f "$DEPS/bin/libtbb12.dll" ]; then
+  echo "cross_windows: oneTBB $tbb_version and GoogleTest for mingw-w64 (a few minutes, once)" >&2
+  work=$(mktemp -d)
+  trap 'rm -rf "$work"' EXIT
+  rm -rf "$DEPS.partial"
+  src=$("$ROOT/tools/debian_source.sh" "onetbb=$tbb_version" "$work")
+  # TBB_STRICT off: mingw's GCC warns in TBB's sources, and strict makes warnings errors. A DLL (TBB
+  # does not support being linked statically), copied beside the programs or found through WINEPATH.
+  cross_install "$src" "$work/tbb" -DTBB_TEST=OFF -DTBB_STRICT=OFF -DTBBMALLOC_BUILD=OFF -DTBB_EXAMPLES=OFF
+  cross_install /usr/src/googletest "$work/gtest" -DBUILD_GMOCK=OFF
+  # The header-only libraries: the host's headers under a folder of their own (the host's /usr/include
+  # on the include path would shadow the Windows C library's headers), with the config files CMake finds.
+  mkdir -p "$DEPS.partial/include" "$DEPS.partial/lib/cmake/glm" "$DEPS.partial/lib/cmake/nlohmann_json"
+  ln -s /usr/include/glm "$DEPS.partial/include/glm"
+  ln -s /usr/include/nlohmann "$DEPS.partial/include/nlohmann"
+  for package in glm:glm::glm nlohmann_json:nlohmann_json::nlohmann_json; do
+    name=${package%%:*} target=${package#*:}
+    cat >"$DEPS.partial/lib/cmake/$name/${name}Config.cmake" <<EOF
+# Made by tools/cross_windows.sh: the host's headers, linked into this folder's include/.
+if(NOT TARGET $target)
+  add_library($target INTERFACE IMPORTED)
+  set_target_properties($target PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "$DEPS/include")
+endif()
+EOF
+  done
+  json_version=$(dpkg-query -W -f='${Version}' nlohmann-json3-dev | cut -d- -f1)
+  cat >"$DEPS.partial/lib/cmake/nlohmann_json/nlohmann_jsonConfigVersion.cmake" <<EOF
+set(PACKAGE_VERSION $json_version)
+if(PACKAGE_FIND_VERSION VERSION_GREATER PACKAGE_VERSION)
+  set(PACKAGE_VERSION_COMPATIBLE FALSE)
+else()
+  set(PACKAGE_VERSION_COMPATIBLE TRUE)
+endif()
+EOF
+  rm -rf "$DEPS" && mv "$DEPS.partial" "$DEPS"
+  rm -rf "$work"
+  trap - EXIT
+fi
+
+start=$SECONDS
+if [ ! -f "$BUILD/build.ninja" ]; then
+  cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE="$TOOLCHAIN" -DCMAKE_BUILD_TYPE=Release \
+    -DRAYLAB_WINDOWS_DEPS="$DEPS" -DRAYLAB_PYTHON=OFF -DRAYLAB_IMAGE_IO=OFF >/dev/null
+fi
+cmake --build "$BUILD" -- -j"$(nproc)" | grep -v "^\[" || true
+test "${PIPESTATUS[0]}" -eq 0
+echo "cross_windows: core and tests built in $((SECONDS - start)) s"
+
+if [ $tests -eq 1 ]; then
+  start=$SECONDS
+  grep -q -m1 avx2 /proc/cpuinfo && echo "cross_windows: this CPU has AVX2: the AVX2 paths run under wine"
+  # One wineserver for the whole run: each test program would otherwise start its own.
+  "$ROOT/tools/wine_run.sh" cmd /c exit 0 >/dev/null
+  export WINEPREFIX="${WINEPREFIX:-$ROOTS/wine64}"
+  wineserver -p 60 2>/dev/null || true  # already running: it stays until the tests end
+  (cd "$BUILD" && ctest --output-on-failure -j"$(nproc)")
+  echo "cross_windows: C++ tests under wine in $((SECONDS - start)) s"
+fi
