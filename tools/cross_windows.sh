@@ -2,7 +2,11 @@
 # The core and its C++ tests for Windows x64, cross-compiled with Debian's mingw-w64 and run under wine64;
 # then the Python module (.pyd) for CPython 3.11 on Windows, built but not run (no Windows Python here).
 #
-#   tools/cross_windows.sh [--no-tests] [--no-module]      (./raylab test --windows runs it)
+#   tools/cross_windows.sh [--no-tests] [--no-compare] [--no-module]      (./raylab test --windows runs it)
+#
+# --no-compare skips the bit-for-bit comparison: raylab_hit_dump (tests/native/dump) built for Linux (in
+# the host's build folder) and for Windows writes every structure's hits for the same rays, and the
+# files must be equal.
 #
 # Made once and cached in $RAYLAB_ROOTS (/var/cache/raylab): oneTBB built from Debian's own source
 # package with this toolchain, GoogleTest from Debian's /usr/src/googletest, the wine prefix, CPython's
@@ -15,10 +19,11 @@ BUILD="${RAYLAB_WINDOWS_BUILD_DIR:-$ROOT/build-windows}"
 TOOLCHAIN="$ROOT/tools/cmake/windows-x64-mingw.cmake"
 CXX=x86_64-w64-mingw32-g++-posix
 die() { echo "cross_windows: $*" >&2; exit 1; }
-tests=1 module=1
+tests=1 compare=1 module=1
 for a in "$@"; do
   case $a in
     --no-tests) tests=0 ;;
+    --no-compare) compare=0 ;;
     --no-module) module=0 ;;
     *) die "unknown argument $a" ;;
   esac
@@ -98,4 +103,20 @@ if [ $tests -eq 1 ]; then
   wineserver -p 60 2>/dev/null || true  # already running: it stays until the tests end
   (cd "$BUILD" && ctest --output-on-failure -j"$(nproc)")
   echo "cross_windows: C++ tests under wine in $((SECONDS - start)) s"
+fi
+
+if [ $compare -eq 1 ]; then
+  start=$SECONDS
+  host_build="${RAYLAB_BUILD_DIR:-$ROOT/build}"
+  [ -f "$host_build/build.ninja" ] || die "no host build in $host_build to compare with (./raylab setup makes it)"
+  cmake --build "$host_build" --target raylab_hit_dump | grep -v "^\[" || true
+  dump=$(mktemp -d)
+  "$host_build/raylab_hit_dump" "$dump/linux-rays" "$dump/linux-hits"
+  "$ROOT/tools/wine_run.sh" "$BUILD/raylab_hit_dump.exe" "$dump/windows-rays" "$dump/windows-hits"
+  same=1
+  cmp "$dump/linux-rays" "$dump/windows-rays" || same=0
+  cmp "$dump/linux-hits" "$dump/windows-hits" || same=0
+  rm -rf "$dump"
+  [ $same -eq 1 ] || die "Linux and Windows differ (above: the rays, or the hits)"
+  echo "cross_windows: Linux's and Windows' hits equal bit for bit ($((SECONDS - start)) s)"
 fi
