@@ -10,7 +10,7 @@
 #
 # Made once and cached in $RAYLAB_ROOTS (/var/cache/raylab): oneTBB built from Debian's own source
 # package with this toolchain, GoogleTest from Debian's /usr/src/googletest, the wine prefix, CPython's
-# Windows headers. GLM and nlohmann-json are the host's headers (header-only). No OpenImageIO: the
+# Windows headers (Debian's python3.11 source: Include/ and PC/pyconfig.h). GLM and nlohmann-json are the host's headers (header-only). No OpenImageIO: the
 # Windows build has RAYLAB_IMAGE_IO off (no C++ test uses it).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -90,8 +90,7 @@ if [ ! -f "$BUILD/build.ninja" ]; then
   cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE="$TOOLCHAIN" -DCMAKE_BUILD_TYPE=Release \
     -DRAYLAB_WINDOWS_DEPS="$DEPS" -DRAYLAB_PYTHON=OFF -DRAYLAB_IMAGE_IO=OFF >/dev/null
 fi
-cmake --build "$BUILD" -- -j"$(nproc)" | grep -v "^\[" || true
-test "${PIPESTATUS[0]}" -eq 0
+cmake --build "$BUILD" -- -j"$(nproc)" | { grep -v "^\[" || true; }
 echo "cross_windows: core and tests built in $((SECONDS - start)) s"
 
 if [ $tests -eq 1 ]; then
@@ -109,7 +108,7 @@ if [ $compare -eq 1 ]; then
   start=$SECONDS
   host_build="${RAYLAB_BUILD_DIR:-$ROOT/build}"
   [ -f "$host_build/build.ninja" ] || die "no host build in $host_build to compare with (./raylab setup makes it)"
-  cmake --build "$host_build" --target raylab_hit_dump | grep -v "^\[" || true
+  cmake --build "$host_build" --target raylab_hit_dump | { grep -v "^\[" || true; }
   dump=$(mktemp -d)
   "$host_build/raylab_hit_dump" "$dump/linux-rays" "$dump/linux-hits"
   "$ROOT/tools/wine_run.sh" "$BUILD/raylab_hit_dump.exe" "$dump/windows-rays" "$dump/windows-hits"
@@ -119,4 +118,51 @@ if [ $compare -eq 1 ]; then
   rm -rf "$dump"
   [ $same -eq 1 ] || die "Linux and Windows differ (above: the rays, or the hits)"
   echo "cross_windows: Linux's and Windows' hits equal bit for bit ($((SECONDS - start)) s)"
+fi
+
+# The module for CPython 3.11 on Windows (the official Blender 4.2-5.0's Python): a module-only build
+# (RAYLAB_WHEEL_INCLUDE) against CPython's Windows headers and the host's pybind11, linked against an
+# import library of python311.dll made from the symbols the module's objects import (a .def file and
+# dlltool: no Windows Python here to take python311.lib from). It lands in $PYBUILD/module with the DLLs
+# it needs beside it (the way a Windows wheel ships them). It cannot be loaded here.
+if [ $module -eq 1 ]; then
+  start=$SECONDS
+  headers="$DEPS/cpython-windows"
+  if [ ! -f "$headers/python3.11/pyconfig.h" ]; then
+    work=$(mktemp -d)
+    trap 'rm -rf "$work"' EXIT
+    src=$("$ROOT/tools/debian_source.sh" python3.11 "$work")
+    rm -rf "$headers.partial" && mkdir -p "$headers.partial/python3.11"
+    cp -r "$src/Include/." "$src/PC/pyconfig.h" "$headers.partial/python3.11/"
+    ln -s /usr/include/pybind11 "$headers.partial/pybind11"
+    rm -rf "$headers" && mv "$headers.partial" "$headers"
+    rm -rf "$work"
+    trap - EXIT
+  fi
+  PYBUILD="$BUILD-python"
+  implib="$PYBUILD/libpython311.dll.a"
+  if [ ! -f "$PYBUILD/build.ninja" ]; then
+    cmake -S "$ROOT" -B "$PYBUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE="$TOOLCHAIN" -DCMAKE_BUILD_TYPE=Release \
+      -DRAYLAB_WINDOWS_DEPS="$DEPS" -DRAYLAB_WHEEL_INCLUDE="$headers" -DRAYLAB_WHEEL_SUFFIX=.cp311-win_amd64.pyd \
+      -DRAYLAB_WHEEL_LIBRARY="$implib" -DRAYLAB_MODULE_DIR="$PYBUILD/module" >/dev/null
+  fi
+  objects=$(ninja -C "$PYBUILD" -t targets all | grep -o '^CMakeFiles/_raylab\.dir/[^:]*\.obj')
+  ninja -C "$PYBUILD" $objects | { grep -v "^\[" || true; }
+  { echo "LIBRARY python311.dll"; echo "EXPORTS"
+    (cd "$PYBUILD" && x86_64-w64-mingw32-nm -u $objects) | sed -n 's/^ *U \(__imp_\)\{0,1\}\(_\{0,1\}Py[A-Za-z0-9_]*\)$/\2/p' | sort -u
+  } > "$PYBUILD/python311.def"
+  x86_64-w64-mingw32-dlltool -d "$PYBUILD/python311.def" -D python311.dll -l "$implib"
+  cmake --build "$PYBUILD" --target _raylab | { grep -v "^\[" || true; }
+    pyd="$PYBUILD/module/_raylab.cp311-win_amd64.pyd"
+  # Beside it, every DLL it imports that is not Windows' or Python's own (TBB, the mingw runtime).
+  runtime=$(dirname "$($CXX -print-file-name=libstdc++-6.dll)")
+  for dll in $(x86_64-w64-mingw32-objdump -p "$pyd" "$DEPS/bin/libtbb12.dll" | sed -n 's/^\s*DLL Name: //p' | sort -u); do
+    for d in "$DEPS/bin" "$runtime" /usr/x86_64-w64-mingw32/lib; do
+      # Stripped: Debian's libstdc++-6.dll keeps its symbols (24 MB).
+      [ -f "$d/$dll" ] && x86_64-w64-mingw32-strip --strip-unneeded -o "$PYBUILD/module/$dll" "$d/$dll" && break
+    done
+  done
+  echo "cross_windows: $pyd ($(grep -c . "$PYBUILD/python311.def") lines of python311.def) in $((SECONDS - start)) s;" \
+    "it imports: $(x86_64-w64-mingw32-objdump -p "$pyd" | sed -n 's/^\s*DLL Name: //p' | tr '\n' ' ')"
+  echo "cross_windows: beside it: $(cd "$PYBUILD/module" && ls ./*.dll | tr '\n' ' ')"
 fi
