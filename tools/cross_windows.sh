@@ -10,8 +10,9 @@
 #
 # Made once and cached in $RAYLAB_ROOTS (/var/cache/raylab): oneTBB built from Debian's own source
 # package with this toolchain, GoogleTest from Debian's /usr/src/googletest, the wine prefix, CPython's
-# Windows headers (Debian's python3.11 source: Include/ and PC/pyconfig.h). GLM and nlohmann-json are the host's headers (header-only). No OpenImageIO: the
-# Windows build has RAYLAB_IMAGE_IO off (no C++ test uses it).
+# Windows headers (Debian's python3.11 source: Include/ and PC/pyconfig.h). GLM and nlohmann-json are
+# the host's headers (header-only). No OpenImageIO: the Windows build has RAYLAB_IMAGE_IO off (no C++
+# test uses it).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 ROOTS="${RAYLAB_ROOTS:-/var/cache/raylab}"
