@@ -7,6 +7,12 @@
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
+// On Windows TBB's thread-local storage includes <windows.h>, whose `near` and `far` macros (16-bit
+// pointer words, defined as nothing) would erase the SIMD code's variables of those names.
+#ifdef _WIN32
+#undef near
+#undef far
+#endif
 
 #include <cstddef>
 #include <span>

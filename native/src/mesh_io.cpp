@@ -2,7 +2,13 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#ifdef _WIN32
+#include <io.h>
+
+#include <filesystem>
+#else
 #include <unistd.h>
+#endif
 
 #include <cerrno>
 #include <charconv>
@@ -68,6 +74,28 @@ std::string cannot_read(const std::string& path, const std::string& why) {
   return "cannot read mesh '" + shown(path) + "': " + why;
 }
 
+#ifdef _WIN32
+// Windows: the path is UTF-8 (as Python's str arrives), so the wide API; binary mode, or the C library
+// would drop every \r and stop at a ^Z; 64-bit sizes (struct stat's are 32 bits). It has no FIFOs in the
+// file system, and a directory does not open: it fails with EACCES.
+using FileInfo = struct _stat64;
+#define S_ISSOCK(mode) false
+int open_for_reading(const std::string& path) {
+  const int fd = ::_wopen(std::filesystem::u8path(path).c_str(), _O_RDONLY | _O_BINARY);
+  FileInfo info{};
+  if (fd < 0 && errno == EACCES && ::_wstat64(std::filesystem::u8path(path).c_str(), &info) == 0 &&
+      S_ISDIR(info.st_mode))
+    throw std::invalid_argument(cannot_read(path, "it is a directory"));
+  return fd;
+}
+int file_info(int fd, FileInfo& info) { return ::_fstat64(fd, &info); }
+#else
+using FileInfo = struct stat;
+// O_NONBLOCK lets a FIFO open without waiting for a writer, so that fstat can refuse it.
+int open_for_reading(const std::string& path) { return ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC); }
+int file_info(int fd, FileInfo& info) { return ::fstat(fd, &info); }
+#endif
+
 const char* file_kind(mode_t mode) {
   if (S_ISDIR(mode)) return "a directory";
   if (S_ISFIFO(mode)) return "a FIFO";
@@ -77,20 +105,19 @@ const char* file_kind(mode_t mode) {
   return "not a regular file";
 }
 
-// Only a regular file is read: a FIFO or a device (/dev/zero) could block or never end. O_NONBLOCK
-// lets a FIFO open without waiting for a writer, so that fstat can refuse it.
+// Only a regular file is read: a FIFO or a device (/dev/zero) could block or never end.
 std::string read_file(const std::string& path) {
   // open() would stop at a NUL and open another file than the one named.
   if (path.find('\0') != std::string::npos)
     throw std::invalid_argument("mesh path contains a NUL character: '" + shown(path.c_str()) + "\\0...'");
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  const int fd = open_for_reading(path);
   if (fd < 0) throw std::runtime_error(cannot_read(path, std::strerror(errno)));
   struct Closer {
     int fd;
     ~Closer() { ::close(fd); }
   } closer{fd};
-  struct stat info {};
-  if (::fstat(fd, &info) != 0) throw std::runtime_error(cannot_read(path, std::strerror(errno)));
+  FileInfo info{};
+  if (file_info(fd, info) != 0) throw std::runtime_error(cannot_read(path, std::strerror(errno)));
   if (!S_ISREG(info.st_mode))
     throw std::invalid_argument(cannot_read(path, std::string("it is ") + file_kind(info.st_mode)));
   const auto too_big = [&path](uint64_t bytes) {

@@ -15,8 +15,6 @@
 #include <new>
 #include <numeric>
 
-#include <sys/mman.h>
-
 namespace raylab {
 
 namespace {
@@ -52,12 +50,7 @@ class WorkArray {
       const size_t bytes =
           n * sizeof(T) < kHugePage ? n * sizeof(T) : (n * sizeof(T) + kHugePage - 1) & ~(kHugePage - 1);
       data_.reset();
-      void* p = bytes < kHugePage ? std::malloc(bytes) : std::aligned_alloc(kHugePage, bytes);
-      if (!p) throw std::bad_alloc();
-#ifdef MADV_HUGEPAGE
-      if (bytes >= kHugePage) madvise(p, bytes, MADV_HUGEPAGE);
-#endif
-      data_.reset(static_cast<T*>(p));
+      data_.reset(static_cast<T*>(allocate_huge(bytes)));
       capacity_ = bytes / sizeof(T);
     }
     size_ = n;
@@ -70,10 +63,7 @@ class WorkArray {
   T* end() { return data_.get() + size_; }
 
  private:
-  struct Free {
-    void operator()(T* p) const { std::free(p); }
-  };
-  std::unique_ptr<T[], Free> data_;
+  HugeArray<T> data_;
   size_t size_ = 0, capacity_ = 0;
 };
 

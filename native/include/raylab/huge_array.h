@@ -8,7 +8,7 @@
 
 namespace raylab {
 
-// Small sizes from malloc, large ones aligned to 2 MiB pages with MADV_HUGEPAGE; throws std::bad_alloc;
+// Small sizes from malloc, large ones aligned to 2 MiB pages with MADV_HUGEPAGE (on Linux); throws std::bad_alloc;
 // free with std::free.
 void* allocate_huge(size_t bytes);
 
