@@ -77,8 +77,21 @@ class Bvh final : public StructureBase<Bvh> {
   void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded) const override {
     any_batch(rays, occluded, nullptr);
   }
-  void closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const;
-  void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts) const;
+  // Counted (the renderer's rays): a packet counts each ray's work into its own per_ray[i] as its single
+  // walk does, so the packet keeps every ray on its own order (a ray whose order differs leaves it).
+  void closest_batch_counted(std::span<const Ray> rays, std::span<Hit> hits,
+                             std::span<TraversalStats> per_ray) const override {
+    closest_batch(rays, hits, nullptr, per_ray);
+  }
+  void any_batch_counted(std::span<const Ray> rays, std::span<uint8_t> occluded,
+                         std::span<TraversalStats> per_ray) const override {
+    any_batch(rays, occluded, nullptr, per_ray);
+  }
+  // per_ray: one per ray, counted as above; empty: uncounted.
+  void closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts,
+                     std::span<TraversalStats> per_ray = {}) const;
+  void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts,
+                 std::span<TraversalStats> per_ray = {}) const;
   // Whether closest_batch traces packets: only where every ray may take the packet's order (the
   // exact contract's watertight test). Elsewhere (the fast contract, Möller–Trumbore) a packet keeps
   // each ray on its own order, and so many rays leave it to finish alone (camera rays 5 %, shadow rays
@@ -88,8 +101,10 @@ class Bvh final : public StructureBase<Bvh> {
     return settings_.contract == Contract::Exact && settings_.triangle_test == TriangleTest::Watertight;
   }
   // One packet of 1 to kPacketSize rays, coherent or not (the tests' way into the packet walk).
-  void closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts = nullptr) const;
-  void any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts = nullptr) const;
+  void closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts = nullptr,
+                      std::span<TraversalStats> per_ray = {}) const;
+  void any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts = nullptr,
+                  std::span<TraversalStats> per_ray = {}) const;
   // Whether `ray` may join a group that `first` starts (the rule above); `origin_limit` is
   // kPacketOriginSpread times the root box's diagonal, squared.
   static bool coherent(const Ray& first, const Ray& ray, float origin_limit);
@@ -292,22 +307,26 @@ class Bvh final : public StructureBase<Bvh> {
     uint32_t ref, count;
     uint32_t rays;  // the rays that entered this node, bit r for ray r
   };
-  template <class Width, bool kClosest, bool kSameOrder>
-  uint32_t packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
-  template <class Width>
+  // kCount: each ray counts its own work into lanes[r] (StatsRecord), as its single walk would.
+  template <class Width, bool kClosest, bool kSameOrder, bool kCount>
+  uint32_t packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const;
+  template <class Width, class Recorder>
   bool finish_alone(const Ray& ray, const glm::vec3& direction, const typename Width::TriangleRayW& triw,
                     const PacketEntry* packet_stack, int packet_size, int r, const Entry* children, int count,
-                    Hit& best) const;
-  template <bool kClosest, bool kSameOrder>
-  __attribute__((target("avx2"))) uint32_t packet8(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+                    Hit& best, Recorder& record) const;
+  template <bool kClosest, bool kSameOrder, bool kCount>
+  __attribute__((target("avx2"))) uint32_t packet8(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                   TraversalStats* lanes) const;
+  template <bool kClosest, bool kCount>
+  __attribute__((target("avx2,fma"))) uint32_t packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                            TraversalStats* lanes) const;
   template <bool kClosest>
-  __attribute__((target("avx2,fma"))) uint32_t packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  uint32_t packet(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const;
   template <bool kClosest>
-  uint32_t packet(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  void trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts, TraversalStats* lanes) const;
   template <bool kClosest>
-  void trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts) const;
-  template <bool kClosest>
-  void trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts) const;
+  void trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts,
+                   TraversalStats* per_ray) const;
 
   uint32_t leaf_id(uint32_t first_packet) const {
     return uint32_t(node_count() + (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) -
