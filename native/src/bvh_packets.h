@@ -255,7 +255,7 @@ template <class Width, bool kClosest, bool kSameOrder, bool kCount>
     if constexpr (kCount)
       for (uint32_t a = active; a != 0; a &= a - 1) {
         auto record = lane_record<kCount>(counted, std::countr_zero(a));
-        record_node(Entry{e.ref, e.count, 0.0f, 0}, record);
+        record.node(e.ref, 0);  // only counted: no leaf id needed
       }
     if (e.count != 0) {
       const Entry leaf{e.ref, e.count, 0.0f, 0};
@@ -281,15 +281,16 @@ template <class Width, bool kClosest, bool kSameOrder, bool kCount>
     uint32_t any;
     if constexpr (kFast) any = packet_node_fast(node, lanes, limit, active, t, hit_by);
     else any = packet_node_exact(node, lanes, limit, active, t, hit_by);
-    if constexpr (kCount)
+    if constexpr (kCount) {
+      // Each ray tests every used child, as alone (only the count is recorded: StatsRecord reads no
+      // argument, and the single walk's box ids would cost a search per leaf child).
+      int used = 0;
+      for (int i = 0; i < W; ++i) used += node.used(i);
       for (uint32_t a = active; a != 0; a &= a - 1) {
-        const int r = std::countr_zero(a);
-        auto record = lane_record<kCount>(counted, r);
-        for (int i = 0; i < W; ++i)
-          if (node.used(i))
-            record.box(node.leaf(i) ? leaf_id(node.child[i]) : node.child[i], node.bounds(i), 0, (hit_by[i] >> r) & 1,
-                       t[i][r]);
+        auto record = lane_record<kCount>(counted, std::countr_zero(a));
+        for (int i = 0; i < used; ++i) record.box(0, Bounds{}, 0, false, 0.0f);
       }
+    }
     if (any == 0) continue;
     // The children hit, in the order the packet visits them: for the closest hit the first ray's own
     // order (nearest first, a tie to the higher index, as the single walk's stack pops them); for any
