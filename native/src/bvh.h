@@ -52,7 +52,8 @@ class Bvh final : public StructureBase<Bvh> {
   // Packets (bvh_packets.h): the uncounted batch queries trace a coherent group of up to kPacketSize
   // consecutive rays through the tree at once, every ray with its own box and triangle tests (the
   // single walk's kernels, its own tmax, its own best hit), so every ray gets the hit its own walk
-  // finds, bit for bit; counted queries and stories walk one ray at a time.
+  // finds, bit for bit. The renderer's counted batches (closest_batch_counted, any_batch_counted) trace
+  // packets too, each ray counting its own work and kept on its own order; stories walk alone.
   //
   // The coherence rule: a group starts at a ray and takes the next rays while each one's direction
   // lies within about 8 degrees of the first's (d . d0 >= kPacketCosine |d| |d0|) and its origin within

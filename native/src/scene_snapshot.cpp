@@ -305,7 +305,7 @@ bool SceneSnapshot::any(const Ray& ray, TraversalStats* stats) const {
 template <bool kClosest, bool kCount>
 void SceneSnapshot::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* occluded,
                                 TraversalStats* per_ray) const {
-  constexpr size_t kGroup = 64;
+  constexpr size_t kGroup = 16;
   struct Lane {
     TopWalk walk;
     Hit best;
