@@ -95,13 +95,21 @@ def test_another_builder_s_tree_is_priced_against_the_sah_builder_s(why_sah):
     assert why_sah.raylab_tree.cost_over_sah > 1.05  # the object median's tree costs more on the teapot
 
 
-def test_the_octree_has_a_tree_without_an_sah_and_the_grid_says_it_has_none(why_sah):
+def test_the_octree_has_a_tree_without_an_sah_the_grid_its_cells_and_the_aabb_none(why_sah):
     why_sah.raylab.structure = "octree"
     structure_cache.scene_model(why_sah)
     assert walk('CHILD') == {'FINISHED'}
     tree = the_tree(why_sah)
     assert not tree.has_sah and all("SAH" not in text for text, _ in tree_view.node_lines(tree, 0))
     why_sah.raylab.structure = "grid"
+    structure_cache.scene_model(why_sah)
+    assert walk('ROOT') == {'FINISHED'} and walk('CHILD') == {'FINISHED'}
+    tree = the_tree(why_sah)
+    cells = tree.children(0)
+    assert len(cells) == len(tree) - 1 and (tree.depth[cells] == 1).all()  # one level: the occupied cells
+    assert why_sah.raylab_tree.node == cells[0] == 1  # the fullest cell first
+    assert (np.diff(tree.triangle_count[cells].astype(np.int64)) <= 0).all()
+    why_sah.raylab.structure = "aabb"
     structure_cache.scene_model(why_sah)
     assert walk('CHILD') == {'CANCELLED'}
     obj, why = tree_view.known_tree(bpy.context)

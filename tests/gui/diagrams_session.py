@@ -84,6 +84,17 @@ def steps_for(target, first):
         them, or as many as the sidebar can hold."""
         looks[0] += 1
         made = diagrams._tiles.get(path)
+        with region_context():
+            side_now = diagrams.tile_side(bpy.context)
+        if made is not None and made[0] != side_now:
+            # The panel shows the tiles of the width before until a timer has made these (the draw asks
+            # for them; it does not make them): wait for that.
+            state["tries"] += 1
+            if state["tries"] > SCROLL_TRIES:
+                gave_up(made)
+                raise RuntimeError(f"{target}: the tiles of {side_now} px were never made (still {made[0]} px)")
+            STEPS.insert(0, look)
+            return
         calls = 1
         if made is not None:
             side = made[0]

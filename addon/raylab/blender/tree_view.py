@@ -28,6 +28,7 @@ LEAF_LINE = (0.6, 0.6, 0.6, 0.9)  # the chart's line at the cost of keeping the 
 MARGIN = 16      # pixels between the view's edge and the tree's frame
 NODE_SIZE = 9    # a node's square, in pixels, at most
 CLICK_RADIUS = 10
+TITLE_HEIGHT = 22  # the frame's title row above the tree
 NODE_EDGE = (0.55, 0.55, 0.55, 1.0)
 
 
@@ -67,7 +68,7 @@ class Tree:
     def __init__(self, key, structure):
         self.key = key
         self.kind = structure.structure
-        arrays = structure.tree()
+        arrays = grid_tree(structure.boxes()) if self.kind == "grid" else structure.tree()
         self.parent = np.asarray(arrays["parent"], dtype=np.int64)
         self.depth = np.asarray(arrays["depth"])
         self.lo, self.hi = np.asarray(arrays["lo"]), np.asarray(arrays["hi"])
@@ -81,6 +82,7 @@ class Tree:
         self.area = 2.0 * (extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0])
         self._splits = {}
         self._pictures = {}
+        self._subtree = (None, None)
         self.cost = self.sah_reference = None  # Structure.sah_cost() of this tree and of the SAH builder's
 
     def __len__(self):
@@ -91,13 +93,16 @@ class Tree:
         return int(min(max(index, 0), len(self) - 1))
 
     def subtree(self, node):
-        """The node and every node below it."""
+        """The node and every node below it (the last asked kept: the view draws it every frame)."""
+        if self._subtree[0] == node:
+            return self._subtree[1]
         found, todo = [], [node]
         while todo:
             n = todo.pop()
             found.append(n)
             todo.extend(self.children(n).tolist())
-        return np.asarray(found, dtype=np.int64)
+        self._subtree = (node, np.asarray(found, dtype=np.int64))
+        return self._subtree[1]
 
     def costliest_child(self, node):
         kids = self.children(node)
@@ -130,6 +135,18 @@ class Tree:
                                      if len(side)]
             self._splits[node] = splits
         return self._splits[node]
+
+
+def grid_tree(boxes):
+    """The grid as a tree of one level (the core gives it none: its cells are not nested): the grid's box,
+    then its occupied cells, the fullest first. Node ids are this order, not boxes()'s."""
+    cells = np.flatnonzero(boxes["depth"] > 0)
+    order = np.concatenate([np.flatnonzero(boxes["depth"] == 0)[:1],
+                            cells[np.argsort(-boxes["triangle_count"][cells], kind="stable")]])
+    parent = np.zeros(len(order), dtype=np.int32)
+    parent[0] = -1
+    return dict(parent=parent, depth=boxes["depth"][order], lo=boxes["lo"][order], hi=boxes["hi"][order],
+                triangle_count=boxes["triangle_count"][order], sah_cost=None)
 
 
 class NoTree:
@@ -167,7 +184,7 @@ def tree_of(obj, entry, scene):
         return tree
     try:
         tree = _trees[obj.name_full] = Tree(entry.key, entry.structure)
-    except ValueError as error:  # a kind without a tree (the AABB, the grid): said once per build
+    except ValueError as error:  # a kind without a tree (the AABB): said once per build
         _trees[obj.name_full] = NoTree(entry.key, str(error))
         raise
     tree.cost = entry.structure.sah_cost()  # None for a kind without an SAH cost
@@ -283,7 +300,7 @@ def _draw_tree_view():
     focus = shown_focus(tree, tree.node(settings.focus), picked, settings.levels)
     picture = tree.picture(focus, settings.levels)
     x0, y0, w, h = tree_frame
-    xs, ys = tree_layout.positions(picture, w, h - 22)
+    xs, ys = tree_layout.positions(picture, w, h - TITLE_HEIGHT)
     xs, ys = xs + x0, ys + y0
     _shown[region.as_pointer()] = (tree_frame, picture, xs, ys)
     nodes = picture["nodes"]
@@ -524,15 +541,13 @@ class RAYLAB_OT_tree_click(bpy.types.Operator):
         shown = _shown.get(context.region.as_pointer()) if context.region else None
         if shown is None:
             return {'PASS_THROUGH'}
-        (x, y, w, h), picture, xs, ys = shown
+        (x, y, w, h), picture, _, _ = shown
         mx, my = event.mouse_region_x, event.mouse_region_y
         if not (x <= mx <= x + w and y <= my <= y + h):
             return {'PASS_THROUGH'}
-        d2 = (xs - mx) ** 2 + (ys - my) ** 2
-        i = int(np.argmin(d2)) if len(d2) else -1
-        if i < 0 or d2[i] > CLICK_RADIUS ** 2:
-            return {'FINISHED'}  # inside the frame but on no node: the click is the tree view's, nothing picked
-        context.scene.raylab_tree.node = int(picture["nodes"][i])
+        node = tree_layout.nearest(picture, mx - x, my - y, w, h - TITLE_HEIGHT, CLICK_RADIUS)
+        if node is not None:  # else inside the frame but on no node: the click is the tree view's all the same
+            context.scene.raylab_tree.node = node
         return {'FINISHED'}
 
 
