@@ -49,6 +49,7 @@ SceneSnapshot::SceneSnapshot(const BuildSettings& settings, std::vector<SceneMes
                              std::vector<SceneInstance> instances, std::shared_ptr<const BinaryBvh> top,
                              uint64_t generation, double build_seconds)
     : settings_(settings),
+      uses_top_level_(structure_info(settings.kind).uses_top_level),
       meshes_(std::move(meshes)),
       instances_(std::move(instances)),
       top_(std::move(top)),
@@ -58,8 +59,6 @@ SceneSnapshot::SceneSnapshot(const BuildSettings& settings, std::vector<SceneMes
     if (!meshes_[m].structure) throw std::logic_error("snapshot of mesh " + std::to_string(m) + " without a structure");
   if (!top_) throw std::logic_error("snapshot without a top level");
 }
-
-bool SceneSnapshot::uses_top_level() const { return structure_info(settings_.kind).uses_top_level; }
 
 // One ray's walk of the top level (or, without one, of every instance in order) for every query,
 // suspended at each instance it visits: the single queries run it to its end at once (traverse), the
@@ -237,6 +236,7 @@ bool closest_in(const Structure& s, const Ray& r, Hit& h, TraversalStats* st) {
 // through StatsRecord, so that a new counter is counted here as everywhere else.
 struct SceneStoryRecord {
   static constexpr bool kActive = true;
+  static constexpr bool kIds = true;
   SceneStory& story;
   TraversalStats& stats;
   void ray() { StatsRecord{stats}.ray(); }

@@ -555,7 +555,7 @@ namespace {
 // The goat head, smooth, over a floor, with two more instances (flat, one glass, one metal), a point, a
 // sun, a spot and an area light: camera, shadow, reflection and refraction rays, instances the top
 // level culls and rays that leave packets.
-RenderResult render_goat_scene(Contract contract, bool batches, int super_sampling) {
+RenderResult render_goat_scene(Contract contract, bool batches, int super_sampling, int tile_size = 32) {
   BuildSettings build;
   build.contract = contract;
   Scene scene(build);
@@ -607,6 +607,7 @@ RenderResult render_goat_scene(Contract contract, bool batches, int super_sampli
   settings.super_sampling = super_sampling;
   settings.batches = batches;
   settings.threads = 1;
+  settings.tile_size = tile_size;
   return render(scene, camera, lights, materials, settings);
 }
 
@@ -649,4 +650,20 @@ TEST(RendererBatches, TheImageStatsAndCostAreThoseOfOneRayAtATimeWithFourWideNod
   expect_batches_render_as_single_rays();
   if (before) setenv("RAYLAB_BVH_WIDTH", saved.c_str(), 1);
   else unsetenv("RAYLAB_BVH_WIDTH");
+}
+
+// A render traces a block of a tile's pixels together (8 x 8, in sub-blocks of 4 x 2): the image, the
+// buffers and every counter are those of a render one pixel at a time (tiles of one pixel, each its
+// own block), whatever the blocks (tiles of 13 pixels cut them short on both sides; 48 x 36 pixels cut
+// the last tiles), batched or not.
+TEST(RendererBatches, BlocksOfPixelsRenderAsOnePixelAtATime) {
+  for (Contract contract : {Contract::Exact, Contract::Fast})
+    for (bool batches : {true, false}) {
+      const RenderResult alone = render_goat_scene(contract, batches, 1, 1);
+      for (int tile_size : {13, 32}) {
+        const std::string what = std::string(contract_name(contract)) + (batches ? " batches" : " single rays") +
+                                 " tile_size " + std::to_string(tile_size);
+        expect_same_render(render_goat_scene(contract, batches, 1, tile_size), alone, what);
+      }
+    }
 }

@@ -121,9 +121,10 @@ class SceneSnapshot {
   bool closest(const Ray& ray, Hit& hit, Recorder& record, Query query) const;
   template <class Recorder>
   bool any(const Ray& ray, Recorder& record) const;
-  bool uses_top_level() const;
+  bool uses_top_level() const { return uses_top_level_; }
 
   BuildSettings settings_;
+  bool uses_top_level_;  // the kind's StructureInfo::uses_top_level, read once (every walk asks)
   std::vector<SceneMesh> meshes_;
   std::vector<SceneInstance> instances_;
   std::shared_ptr<const BinaryBvh> top_;
