@@ -243,6 +243,7 @@ RenderSettings settings_from_dict(py::handle object) {
   s.tile_size = f.integer("tile_size", s.tile_size);
   s.cost_rays = f.row("cost_rays", kCostRays, kCostRays[0]).value;
   s.memory_budget = f.bytes("memory_budget", s.memory_budget);
+  s.batches = f.boolean("batches", s.batches);
   f.finish();
   try {
     s.validate();
@@ -458,7 +459,9 @@ void bind_render(py::module_& m) {
         "cancels the render by returning True. settings (all optional): super_sampling (1-4), max_recursion (0-64), "
         "shadows, background, ambient, robust_offset, fixed_epsilon, shadow_terminator, threads, tile_size, "
         "cost_rays (one of COST_RAYS: which of a pixel's rays its result.cost counts), memory_budget (bytes "
-        "the render's buffers and the result's arrays may take; resolutions beyond it are refused).");
+        "the render's buffers and the result's arrays may take; resolutions beyond it are refused), batches "
+        "(trace camera and shadow rays in coherent batches, the default; False: one ray at a time, the same "
+        "image, counters and cost bit for bit).");
 }
 
 }  // namespace raylab::python

@@ -330,33 +330,48 @@ bool Bvh::coherent(const Ray& first, const Ray& ray, float origin_limit) {
          glm::dot(o, o) <= origin_limit;
 }
 
-void Bvh::closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const {
+void Bvh::closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts,
+                        std::span<TraversalStats> per_ray) const {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
+  if (!per_ray.empty() && per_ray.size() != rays.size())
+    throw std::invalid_argument("per_ray and rays differ in length");
   if (!closest_packets()) {  // one ray at a time, with no coherence tests
-    Structure::closest_batch(rays, hits);
+    if (per_ray.empty()) Structure::closest_batch(rays, hits);
+    else Structure::closest_batch_counted(rays, hits, per_ray);
     if (counts) counts->single_rays += rays.size();
     return;
   }
-  trace_batch<true>(rays, hits.data(), nullptr, counts);
+  trace_batch<true>(rays, hits.data(), nullptr, counts, per_ray.empty() ? nullptr : per_ray.data());
 }
 
-void Bvh::any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts) const {
+void Bvh::any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts,
+                    std::span<TraversalStats> per_ray) const {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
-  trace_batch<false>(rays, nullptr, occluded.data(), counts);
+  if (!per_ray.empty() && per_ray.size() != rays.size())
+    throw std::invalid_argument("per_ray and rays differ in length");
+  trace_batch<false>(rays, nullptr, occluded.data(), counts, per_ray.empty() ? nullptr : per_ray.data());
 }
 
-void Bvh::closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const {
+void Bvh::closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts,
+                         std::span<TraversalStats> per_ray) const {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
   if (rays.empty() || rays.size() > size_t(kPacketSize))
     throw std::invalid_argument("a packet holds 1 to " + std::to_string(kPacketSize) + " rays");
-  trace_packet<true>(rays.data(), int(rays.size()), hits.data(), nullptr, counts);
+  if (!per_ray.empty() && per_ray.size() != rays.size())
+    throw std::invalid_argument("per_ray and rays differ in length");
+  trace_packet<true>(rays.data(), int(rays.size()), hits.data(), nullptr, counts,
+                     per_ray.empty() ? nullptr : per_ray.data());
 }
 
-void Bvh::any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts) const {
+void Bvh::any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts,
+                     std::span<TraversalStats> per_ray) const {
   if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
   if (rays.empty() || rays.size() > size_t(kPacketSize))
     throw std::invalid_argument("a packet holds 1 to " + std::to_string(kPacketSize) + " rays");
-  trace_packet<false>(rays.data(), int(rays.size()), nullptr, occluded.data(), counts);
+  if (!per_ray.empty() && per_ray.size() != rays.size())
+    throw std::invalid_argument("per_ray and rays differ in length");
+  trace_packet<false>(rays.data(), int(rays.size()), nullptr, occluded.data(), counts,
+                      per_ray.empty() ? nullptr : per_ray.data());
 }
 
 std::unique_ptr<Structure> build_bvh(MeshPtr mesh, const BuildSettings& settings) {

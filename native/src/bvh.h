@@ -52,7 +52,8 @@ class Bvh final : public StructureBase<Bvh> {
   // Packets (bvh_packets.h): the uncounted batch queries trace a coherent group of up to kPacketSize
   // consecutive rays through the tree at once, every ray with its own box and triangle tests (the
   // single walk's kernels, its own tmax, its own best hit), so every ray gets the hit its own walk
-  // finds, bit for bit; counted queries and stories walk one ray at a time.
+  // finds, bit for bit. The renderer's counted batches (closest_batch_counted, any_batch_counted) trace
+  // packets too, each ray counting its own work and kept on its own order; stories walk alone.
   //
   // The coherence rule: a group starts at a ray and takes the next rays while each one's direction
   // lies within about 8 degrees of the first's (d . d0 >= kPacketCosine |d| |d0|) and its origin within
@@ -77,8 +78,21 @@ class Bvh final : public StructureBase<Bvh> {
   void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded) const override {
     any_batch(rays, occluded, nullptr);
   }
-  void closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts) const;
-  void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts) const;
+  // Counted (the renderer's rays): a packet counts each ray's work into its own per_ray[i] as its single
+  // walk does, so the packet keeps every ray on its own order (a ray whose order differs leaves it).
+  void closest_batch_counted(std::span<const Ray> rays, std::span<Hit> hits,
+                             std::span<TraversalStats> per_ray) const override {
+    closest_batch(rays, hits, nullptr, per_ray);
+  }
+  void any_batch_counted(std::span<const Ray> rays, std::span<uint8_t> occluded,
+                         std::span<TraversalStats> per_ray) const override {
+    any_batch(rays, occluded, nullptr, per_ray);
+  }
+  // per_ray: one per ray, counted as above; empty: uncounted.
+  void closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts,
+                     std::span<TraversalStats> per_ray = {}) const;
+  void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts,
+                 std::span<TraversalStats> per_ray = {}) const;
   // Whether closest_batch traces packets: only where every ray may take the packet's order (the
   // exact contract's watertight test). Elsewhere (the fast contract, Möller–Trumbore) a packet keeps
   // each ray on its own order, and so many rays leave it to finish alone (camera rays 5 %, shadow rays
@@ -88,8 +102,10 @@ class Bvh final : public StructureBase<Bvh> {
     return settings_.contract == Contract::Exact && settings_.triangle_test == TriangleTest::Watertight;
   }
   // One packet of 1 to kPacketSize rays, coherent or not (the tests' way into the packet walk).
-  void closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts = nullptr) const;
-  void any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts = nullptr) const;
+  void closest_packet(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts = nullptr,
+                      std::span<TraversalStats> per_ray = {}) const;
+  void any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts = nullptr,
+                  std::span<TraversalStats> per_ray = {}) const;
   // Whether `ray` may join a group that `first` starts (the rule above); `origin_limit` is
   // kPacketOriginSpread times the root box's diagonal, squared.
   static bool coherent(const Ray& first, const Ray& ray, float origin_limit);
@@ -292,22 +308,26 @@ class Bvh final : public StructureBase<Bvh> {
     uint32_t ref, count;
     uint32_t rays;  // the rays that entered this node, bit r for ray r
   };
-  template <class Width, bool kClosest, bool kSameOrder>
-  uint32_t packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
-  template <class Width>
+  // kCount: each ray counts its own work into lanes[r] (StatsRecord), as its single walk would.
+  template <class Width, bool kClosest, bool kSameOrder, bool kCount>
+  uint32_t packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const;
+  template <class Width, class Recorder>
   bool finish_alone(const Ray& ray, const glm::vec3& direction, const typename Width::TriangleRayW& triw,
                     const PacketEntry* packet_stack, int packet_size, int r, const Entry* children, int count,
-                    Hit& best) const;
-  template <bool kClosest, bool kSameOrder>
-  __attribute__((target("avx2"))) uint32_t packet8(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+                    Hit& best, Recorder& record) const;
+  template <bool kClosest, bool kSameOrder, bool kCount>
+  __attribute__((target("avx2"))) uint32_t packet8(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                   TraversalStats* lanes) const;
+  template <bool kClosest, bool kCount>
+  __attribute__((target("avx2,fma"))) uint32_t packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                            TraversalStats* lanes) const;
   template <bool kClosest>
-  __attribute__((target("avx2,fma"))) uint32_t packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  uint32_t packet(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const;
   template <bool kClosest>
-  uint32_t packet(const Ray* rays, int n, Hit* hits, uint8_t* out) const;
+  void trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts, TraversalStats* lanes) const;
   template <bool kClosest>
-  void trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts) const;
-  template <bool kClosest>
-  void trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts) const;
+  void trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts,
+                   TraversalStats* per_ray) const;
 
   uint32_t leaf_id(uint32_t first_packet) const {
     return uint32_t(node_count() + (std::lower_bound(leaf_packets_.begin(), leaf_packets_.end(), first_packet) -
@@ -316,7 +336,9 @@ class Bvh final : public StructureBase<Bvh> {
 
   template <class Recorder>
   void record_node(const Entry& e, Recorder& record) const {
-    if constexpr (Recorder::kActive) record.node(e.count != 0 ? leaf_id(e.ref) : e.ref, e.depth);
+    // A leaf's id is a search (leaf_id): only for a recorder that reads it (a story). Counting alone
+    // skips it: it took 13 % of a counted render's samples on the dragon (docs/bench/history.md).
+    if constexpr (Recorder::kActive) record.node(Recorder::kIds && e.count != 0 ? leaf_id(e.ref) : e.ref, e.depth);
   }
 
   template <class Recorder>
@@ -343,8 +365,8 @@ class Bvh final : public StructureBase<Bvh> {
     if constexpr (Recorder::kActive) {
       for (int i = 0; i < Node::kWidth; ++i)
         if (node.used(i))
-          record.box(node.leaf(i) ? leaf_id(node.child[i]) : node.child[i], node.bounds(i), e.depth + 1,
-                     (mask >> i) & 1, t[i]);
+          record.box(Recorder::kIds && node.leaf(i) ? leaf_id(node.child[i]) : node.child[i], node.bounds(i),
+                     e.depth + 1, (mask >> i) & 1, t[i]);
     }
     if (mask == 0) return false;
     const int depth = e.depth + 1;

@@ -158,18 +158,41 @@ inline uint32_t packet_keep(const float* t_entry, const float* limit) {
   return uint32_t(_mm_movemask_ps(lo)) | uint32_t(_mm_movemask_ps(hi)) << 4;
 }
 
+// Ray r's recorder in a packet: its own counters, or nothing.
+template <bool kCount>
+inline auto lane_record(TraversalStats* lanes, int r) {
+  if constexpr (kCount) return StatsRecord{lanes[r]};
+  else return NoRecord{};
+}
+
 // Traces rays[0..n) (1 <= n <= kPacketSize) and writes out[r] (found / occluded) and, closest, hits[r]
 // where found. Returns the rays that left the packet (kSameOrder) and finished alone.
-template <class Width, bool kClosest, bool kSameOrder>
-[[gnu::always_inline]] inline uint32_t Bvh::packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out) const {
+// Counted (kCount), every ray records what its recorded single walk records: its query, the root box
+// (a ray that misses it leaves at once, ignored), each node it enters, every used child box of those
+// nodes and its triangle tests. Its visits are its own walk's only where it keeps its own order of the
+// children: any hit's order is the single walk's for every ray (the highest child first), and closest
+// hit needs kSameOrder.
+template <class Width, bool kClosest, bool kSameOrder, bool kCount>
+[[gnu::always_inline]] inline uint32_t Bvh::packet_walk(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                        TraversalStats* counted) const {
   using Node = typename Width::Node;
   using TriangleRayW = typename Width::TriangleRayW;
   constexpr int K = kPacketSize;
   constexpr int W = Node::kWidth;
   constexpr bool kFast = std::is_same_v<Width, FastSse4> || std::is_same_v<Width, FastAvx8>;
   static_assert(K == 8);
-  const uint32_t all = (1u << n) - 1;
-  if (node_count() == 0) {
+  static_assert(!kCount || !kClosest || kSameOrder);
+  uint32_t all = (1u << n) - 1;
+  if constexpr (kCount)
+    for (int r = 0; r < n; ++r) {
+      auto record = lane_record<kCount>(counted, r);
+      record.ray();
+      float t_root;
+      const BoxRay box_ray(rays[r], effective_direction(rays[r].direction), root_bounds_);
+      if (!raylab::enter_root(root_bounds_, node_count() != 0, box_ray, box_ray.tmax, record, t_root))
+        all &= ~(1u << r);
+    }
+  if (node_count() == 0 || all == 0) {
     for (int r = 0; r < n; ++r) out[r] = 0;
     return 0;
   }
@@ -219,7 +242,6 @@ template <class Width, bool kClosest, bool kSameOrder>
   alignas(32) PacketEntry stack[kStackSize];
   int size = 0;
   bool root = true;  // the root is entered as the single walk enters it, without the skip test
-  NoRecord record;
   for (;;) {
     if (!root) {
       if (size == 0) break;
@@ -230,10 +252,16 @@ template <class Width, bool kClosest, bool kSameOrder>
       if (!root) active &= packet_keep(e.t_entry, limit);
     root = false;
     if (active == 0) continue;
+    if constexpr (kCount)
+      for (uint32_t a = active; a != 0; a &= a - 1) {
+        auto record = lane_record<kCount>(counted, std::countr_zero(a));
+        record.node(e.ref, 0);  // only counted: no leaf id needed
+      }
     if (e.count != 0) {
       const Entry leaf{e.ref, e.count, 0.0f, 0};
       for (uint32_t a = active; a != 0; a &= a - 1) {
         const int r = std::countr_zero(a);
+        auto record = lane_record<kCount>(counted, r);
         if constexpr (kClosest) {
           if (closest_in_leaf<Width>(triangles_of(r), rays[r], leaf, best[r], record)) {
             found |= 1u << r;
@@ -253,19 +281,34 @@ template <class Width, bool kClosest, bool kSameOrder>
     uint32_t any;
     if constexpr (kFast) any = packet_node_fast(node, lanes, limit, active, t, hit_by);
     else any = packet_node_exact(node, lanes, limit, active, t, hit_by);
+    if constexpr (kCount) {
+      // Each ray tests every used child, as alone (only the count is recorded: StatsRecord reads no
+      // argument, and the single walk's box ids would cost a search per leaf child).
+      int used = 0;
+      for (int i = 0; i < W; ++i) used += node.used(i);
+      for (uint32_t a = active; a != 0; a &= a - 1) {
+        auto record = lane_record<kCount>(counted, std::countr_zero(a));
+        for (int i = 0; i < used; ++i) record.box(0, Bounds{}, 0, false, 0.0f);
+      }
+    }
     if (any == 0) continue;
     // The children hit, in the order the packet visits them: for the closest hit the first ray's own
     // order (nearest first, a tie to the higher index, as the single walk's stack pops them); for any
-    // hit the order does not matter.
+    // hit every ray's own, the highest index first (the single walk's unordered stack pops them so):
+    // the answer does not depend on it, each ray's counts do.
     const int leader = std::countr_zero(any);
     int order[W];
     int k = 0;
-    for (int i = 0; i < W; ++i) {
-      if (hit_by[i] == 0) continue;
-      int j = k++;
-      if constexpr (kClosest)
+    if constexpr (kClosest) {
+      for (int i = 0; i < W; ++i) {
+        if (hit_by[i] == 0) continue;
+        int j = k++;
         for (; j > 0 && t[order[j - 1]][leader] >= t[i][leader]; --j) order[j] = order[j - 1];
-      order[j] = i;
+        order[j] = i;
+      }
+    } else {
+      for (int i = W - 1; i >= 0; --i)
+        if (hit_by[i] != 0) order[k++] = i;
     }
     if constexpr (kClosest && kSameOrder) {
       if (k > 1)
@@ -291,7 +334,9 @@ template <class Width, bool kClosest, bool kSameOrder>
             for (; j > 0 && children[j - 1].t_entry < c.t_entry; --j) children[j] = children[j - 1];
             children[j] = c;
           }
-          if (finish_alone<Width>(rays[r], direction[r], triangles_of(r), stack, size, r, children, count, best[r]))
+          auto record = lane_record<kCount>(counted, r);
+          if (finish_alone<Width>(rays[r], direction[r], triangles_of(r), stack, size, r, children, count, best[r],
+                                  record))
             found |= 1u << r;
           left |= 1u << r;
           alive &= ~(1u << r);
@@ -319,12 +364,13 @@ template <class Width, bool kClosest, bool kSameOrder>
 
 // The rest of ray r's single walk from where it left the packet: its stack is the packet's entries it
 // is in, bottom to top, then `children` (its hit children of the node it left at, farthest first), and
-// its best hit so far `best`. The single walk's loop (traverse_wide), unrecorded.
-template <class Width>
+// its best hit so far `best`. The single walk's loop (traverse_wide).
+template <class Width, class Recorder>
 [[gnu::always_inline]] inline bool Bvh::finish_alone(const Ray& ray, const glm::vec3& direction,
                                                      const typename Width::TriangleRayW& triw,
                                                      const PacketEntry* packet_stack, int packet_size, int r,
-                                                     const Entry* children, int count, Hit& best) const {
+                                                     const Entry* children, int count, Hit& best,
+                                                     Recorder& record) const {
   Entry stack[kStackSize];
   int size = 0;
   for (int j = 0; j < packet_size; ++j)
@@ -332,12 +378,12 @@ template <class Width>
       stack[size++] = {packet_stack[j].ref, packet_stack[j].count, packet_stack[j].t_entry[r], 0};
   for (int j = 0; j < count; ++j) stack[size++] = children[j];
   const typename Width::BoxRayW boxw(BoxRay(ray, direction, root_bounds_));
-  NoRecord record;
   bool found = false;
   while (size > 0) {
     Entry e = stack[--size];
     for (;;) {
       if (e.t_entry > best.t) break;
+      record_node(e, record);
       if (e.count != 0) {
         found |= closest_in_leaf<Width>(triw, ray, e, best, record);
         break;
@@ -348,37 +394,49 @@ template <class Width>
   return found;
 }
 
-template <bool kClosest, bool kSameOrder>
-__attribute__((target("avx2"))) uint32_t Bvh::packet8(const Ray* rays, int n, Hit* hits, uint8_t* out) const {
-  return packet_walk<Avx8, kClosest, kSameOrder>(rays, n, hits, out);
+template <bool kClosest, bool kSameOrder, bool kCount>
+__attribute__((target("avx2"))) uint32_t Bvh::packet8(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                      TraversalStats* lanes) const {
+  return packet_walk<Avx8, kClosest, kSameOrder, kCount>(rays, n, hits, out, lanes);
 }
 
-template <bool kClosest>
-__attribute__((target("avx2,fma"))) uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out) const {
-  return packet_walk<FastAvx8, kClosest, true>(rays, n, hits, out);
+template <bool kClosest, bool kCount>
+__attribute__((target("avx2,fma"))) uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                               TraversalStats* lanes) const {
+  return packet_walk<FastAvx8, kClosest, true, kCount>(rays, n, hits, out, lanes);
 }
 
-// The instance of the contract, the triangle test and the width.
+// The instance of the contract, the triangle test, the width and counting (`lanes`: ray r's counters,
+// or null). Counted packets keep every ray on its own order.
 template <bool kClosest>
-uint32_t Bvh::packet(const Ray* rays, int n, Hit* hits, uint8_t* out) const {
+uint32_t Bvh::packet(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const {
+  if (lanes) {
+    if (settings_.contract == Contract::Fast) {
+      if (width_ == 8) return packet8_fast<kClosest, true>(rays, n, hits, out, lanes);
+      return packet_walk<FastSse4, kClosest, true, true>(rays, n, hits, out, lanes);
+    }
+    if (width_ == 8) return packet8<kClosest, true, true>(rays, n, hits, out, lanes);
+    return packet_walk<Sse4, kClosest, true, true>(rays, n, hits, out, lanes);
+  }
   if (settings_.contract == Contract::Fast) {
-    if (width_ == 8) return packet8_fast<kClosest>(rays, n, hits, out);
-    return packet_walk<FastSse4, kClosest, true>(rays, n, hits, out);
+    if (width_ == 8) return packet8_fast<kClosest, false>(rays, n, hits, out, nullptr);
+    return packet_walk<FastSse4, kClosest, true, false>(rays, n, hits, out, nullptr);
   }
   if (settings_.triangle_test != TriangleTest::Watertight) {
-    if (width_ == 8) return packet8<kClosest, true>(rays, n, hits, out);
-    return packet_walk<Sse4, kClosest, true>(rays, n, hits, out);
+    if (width_ == 8) return packet8<kClosest, true, false>(rays, n, hits, out, nullptr);
+    return packet_walk<Sse4, kClosest, true, false>(rays, n, hits, out, nullptr);
   }
-  if (width_ == 8) return packet8<kClosest, false>(rays, n, hits, out);
-  return packet_walk<Sse4, kClosest, false>(rays, n, hits, out);
+  if (width_ == 8) return packet8<kClosest, false, false>(rays, n, hits, out, nullptr);
+  return packet_walk<Sse4, kClosest, false, false>(rays, n, hits, out, nullptr);
 }
 
-// One packet; hits[r] is a default Hit on a miss.
+// One packet; hits[r] is a default Hit on a miss. `lanes`: the rays' own counters, or null.
 template <bool kClosest>
-void Bvh::trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts) const {
+void Bvh::trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCounts* counts,
+                       TraversalStats* lanes) const {
   Hit packet_hits[kPacketSize];
   uint8_t found[kPacketSize];
-  const uint32_t left = packet<kClosest>(rays, n, packet_hits, found);
+  const uint32_t left = packet<kClosest>(rays, n, packet_hits, found, lanes);
   if (counts) {
     ++counts->packets;
     counts->packet_rays += size_t(n);
@@ -390,9 +448,11 @@ void Bvh::trace_packet(const Ray* rays, int n, Hit* hits, uint8_t* out, PacketCo
   }
 }
 
-// A run of rays: each coherent group (bvh.h) as a packet, the other rays alone.
+// A run of rays: each coherent group (bvh.h) as a packet, the other rays alone. `per_ray`: each ray's
+// counters, or null.
 template <bool kClosest>
-void Bvh::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts) const {
+void Bvh::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, PacketCounts* counts,
+                      TraversalStats* per_ray) const {
   const float spread =
       kPacketOriginSpread * glm::length(root_bounds_.empty() ? glm::vec3(0.0f) : root_bounds_.hi - root_bounds_.lo);
   const float origin_limit = spread * spread;
@@ -400,16 +460,18 @@ void Bvh::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, Packet
     size_t n = 1;
     while (n < size_t(kPacketSize) && i + n < rays.size() && coherent(rays[i], rays[i + n], origin_limit)) ++n;
     if (n >= size_t(kMinPacket) && coherent(rays[i], rays[i], origin_limit)) {
-      trace_packet<kClosest>(&rays[i], int(n), kClosest ? &hits[i] : nullptr, kClosest ? nullptr : &out[i], counts);
+      trace_packet<kClosest>(&rays[i], int(n), kClosest ? &hits[i] : nullptr, kClosest ? nullptr : &out[i], counts,
+                             per_ray ? &per_ray[i] : nullptr);
       i += n;
       continue;
     }
     if constexpr (kClosest) {
       Hit h;
-      closest(rays[i], h);
+      if (per_ray) closest(rays[i], h, per_ray[i]);
+      else closest(rays[i], h);
       hits[i] = h;
     } else {
-      out[i] = any(rays[i]);
+      out[i] = per_ray ? any(rays[i], per_ray[i]) : any(rays[i]);
     }
     if (counts) ++counts->single_rays;
     ++i;

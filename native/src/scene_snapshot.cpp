@@ -49,6 +49,7 @@ SceneSnapshot::SceneSnapshot(const BuildSettings& settings, std::vector<SceneMes
                              std::vector<SceneInstance> instances, std::shared_ptr<const BinaryBvh> top,
                              uint64_t generation, double build_seconds)
     : settings_(settings),
+      uses_top_level_(structure_info(settings.kind).uses_top_level),
       meshes_(std::move(meshes)),
       instances_(std::move(instances)),
       top_(std::move(top)),
@@ -59,57 +60,121 @@ SceneSnapshot::SceneSnapshot(const BuildSettings& settings, std::vector<SceneMes
   if (!top_) throw std::logic_error("snapshot without a top level");
 }
 
-bool SceneSnapshot::uses_top_level() const { return structure_info(settings_.kind).uses_top_level; }
-
-// One traversal of the top level for both queries. `visit(instance, tmax)` queries one instance
-// and returns the new far limit (any-hit returns -inf to stop).
-template <class Recorder, class Visit>
-void SceneSnapshot::traverse(const Ray& ray, Recorder& record, float& tmax, Visit visit) const {
+// One ray's walk of the top level (or, without one, of every instance in order) for every query,
+// suspended at each instance it visits: the single queries run it to its end at once (traverse), the
+// batches run many at a time and serve the rays waiting on one instance together (trace_batch). The
+// caller lowers `tmax` after each visit (any hit: to -inf, which ends the walk).
+struct SceneSnapshot::TopWalk {
   struct Entry {
     uint32_t node;
     int depth;
     float t_entry;
   };
-  record.ray();
-  if (!uses_top_level()) {
-    for (uint32_t k = 0; k < instances_.size() && tmax >= ray.tmin; ++k) tmax = visit(k, tmax);
-    return;
-  }
-  const BinaryBvh& top = *top_;
-  if (top.nodes.empty()) return;
+  TopWalk(const Ray& r, const BinaryBvh& top)
+      : ray(r), box_ray(r, top.nodes.empty() ? Bounds{} : top.nodes[0].bounds()), tmax(r.tmax) {}
+  Ray ray;
   // Padded like a structure's own boxes, relative to the top root: the object-space ray is the world
   // ray transformed in float, so an instance's hit can lie a rounding of the origin's distance
   // outside its world box (transform_bounds pads only by the box's own coordinates).
-  const BoxRay box_ray(ray, top.nodes[0].bounds());
-  float t_root = ray.tmin;
-  const bool root_hit = intersect_box(top.nodes[0].bounds(), box_ray, ray.tmax, t_root);
-  record.box(0, top.nodes[0].bounds(), 0, root_hit, t_root);
-  if (!root_hit) return;
-  Entry stack[Bvh::kStackSize];
+  BoxRay box_ray;
+  float tmax;
+  uint32_t leaf_next = 0, leaf_end = 0;  // the current leaf's instances not visited yet
+  bool in_leaf = false;
+  uint32_t linear_next = 0;  // without a top level: the next instance
   int size = 0;
-  stack[size++] = {0, 0, t_root};
-  while (size > 0) {
-    const Entry e = stack[--size];
-    if (e.t_entry > box_limit(tmax)) continue;
+  Entry stack[Bvh::kStackSize];
+};
+
+template <class Recorder>
+void SceneSnapshot::start(TopWalk& w, Recorder& record) const {
+  record.ray();
+  if (!uses_top_level()) return;
+  const BinaryBvh& top = *top_;
+  if (top.nodes.empty()) return;
+  float t_root = w.ray.tmin;
+  const bool root_hit = intersect_box(top.nodes[0].bounds(), w.box_ray, w.ray.tmax, t_root);
+  record.box(0, top.nodes[0].bounds(), 0, root_hit, t_root);
+  if (root_hit) w.stack[w.size++] = {0, 0, t_root};
+}
+
+// The next instance the walk visits within w.tmax; false when it is over.
+template <class Recorder>
+bool SceneSnapshot::next_instance(TopWalk& w, Recorder& record, uint32_t& instance) const {
+  const Ray& ray = w.ray;
+  if (!uses_top_level()) {
+    if (w.linear_next < instances_.size() && w.tmax >= ray.tmin) {
+      instance = w.linear_next++;
+      return true;
+    }
+    return false;
+  }
+  const BinaryBvh& top = *top_;
+  for (;;) {
+    if (w.in_leaf) {
+      if (w.leaf_next < w.leaf_end && w.tmax >= ray.tmin) {
+        instance = top.prims[w.leaf_next++];
+        return true;
+      }
+      w.in_leaf = false;
+      if (w.tmax < ray.tmin) {
+        w.size = 0;
+        return false;
+      }
+    }
+    if (w.size == 0) return false;
+    const TopWalk::Entry e = w.stack[--w.size];
+    if (e.t_entry > box_limit(w.tmax)) continue;
     const BvhNode& node = top.nodes[e.node];
     record.node(e.node, e.depth);
     if (node.leaf()) {
-      for (uint32_t k = 0; k < node.count && tmax >= ray.tmin; ++k) tmax = visit(top.prims[node.index + k], tmax);
-      if (tmax < ray.tmin) return;
+      w.in_leaf = true;
+      w.leaf_next = node.index;
+      w.leaf_end = node.index + node.count;
       continue;
     }
     float t[2] = {ray.tmin, ray.tmin};
     bool h[2];
     for (uint32_t c = 0; c < 2; ++c) {
       const BvhNode& child = top.nodes[node.index + c];
-      h[c] = intersect_box(child.bounds(), box_ray, box_limit(tmax), t[c]);
+      h[c] = intersect_box(child.bounds(), w.box_ray, box_limit(w.tmax), t[c]);
       record.box(node.index + c, child.bounds(), e.depth + 1, h[c], t[c]);
     }
     const uint32_t near = (h[0] && h[1] && t[1] < t[0]) ? 1 : 0;
     for (uint32_t c : {1 - near, near})
-      if (h[c]) stack[size++] = {node.index + c, e.depth + 1, t[c]};
+      if (h[c]) w.stack[w.size++] = {node.index + c, e.depth + 1, t[c]};
   }
 }
+
+// The walk run to its end: `visit(instance, tmax)` queries one instance and returns the new far limit.
+template <class Recorder, class Visit>
+void SceneSnapshot::traverse(const Ray& ray, Recorder& record, float& tmax, Visit visit) const {
+  TopWalk w(ray, *top_);
+  start(w, record);
+  uint32_t k;
+  while (next_instance(w, record, k)) w.tmax = visit(k, w.tmax);
+  tmax = w.tmax;
+}
+
+namespace {
+
+// An instance query's work, as the scene counts it: its object work added, and whether the object's
+// structure took the ray.
+template <class Recorder>
+void add_instance_work(Recorder& record, const TraversalStats& counts, bool& entered) {
+  if (counts.rays_ignored == 0) entered = true;
+  for (const CounterInfo& c : kCounters)
+    if (c.object_work) record.stats.*c.field += counts.*c.field;
+}
+
+// Equal t across instances: the lower instance index wins, whatever the visiting order.
+void take_instance_hit(Hit& best, const Hit& h, bool found, uint32_t k) {
+  if (found && (h.t < best.t || (h.t == best.t && k < best.instance))) {
+    best = h;
+    best.instance = k;
+  }
+}
+
+}  // namespace
 
 template <class Recorder, class Query>
 bool SceneSnapshot::query_instance(uint32_t k, const Ray& ray, float limit, Recorder& record, bool& entered,
@@ -120,9 +185,7 @@ bool SceneSnapshot::query_instance(uint32_t k, const Ray& ray, float limit, Reco
   if constexpr (Recorder::kActive) {
     TraversalStats counts;
     const bool found = query(k, s, r, &counts);
-    if (counts.rays_ignored == 0) entered = true;
-    for (const CounterInfo& c : kCounters)
-      if (c.object_work) record.stats.*c.field += counts.*c.field;
+    add_instance_work(record, counts, entered);
     return found;
   } else {
     return query(k, s, r, nullptr);
@@ -139,11 +202,7 @@ bool SceneSnapshot::closest(const Ray& ray, Hit& hit, Recorder& record, Query qu
     const bool found = query_instance(
         k, ray, limit, record, entered,
         [&](uint32_t k, const Structure& s, const Ray& r, TraversalStats* st) { return query(k, s, r, h, st); });
-    // Equal t across instances: the lower instance index wins, whatever the visiting order.
-    if (found && (h.t < best.t || (h.t == best.t && k < best.instance))) {
-      best = h;
-      best.instance = k;
-    }
+    take_instance_hit(best, h, found, k);
     return best.t;
   });
   if (!entered) record.ignored();
@@ -177,6 +236,7 @@ bool closest_in(const Structure& s, const Ray& r, Hit& h, TraversalStats* st) {
 // through StatsRecord, so that a new counter is counted here as everywhere else.
 struct SceneStoryRecord {
   static constexpr bool kActive = true;
+  static constexpr bool kIds = true;
   SceneStory& story;
   TraversalStats& stats;
   void ray() { StatsRecord{stats}.ray(); }
@@ -237,6 +297,104 @@ bool SceneSnapshot::any(const Ray& ray, TraversalStats* stats) const {
   }
   NoRecord record;
   return any(ray, record);
+}
+
+// Rays `kGroup` at a time: each walks the top level as alone up to the next instance it visits; the
+// first ray still walking names the instance served next, and every ray waiting on that one goes to
+// its structure's batch query, moved to its object space with its own far limit, then walks on.
+template <bool kClosest, bool kCount>
+void SceneSnapshot::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* occluded,
+                                TraversalStats* per_ray) const {
+  constexpr size_t kGroup = 16;
+  struct Lane {
+    TopWalk walk;
+    Hit best;
+    uint32_t instance = 0;
+    bool waiting = false, entered = false, found = false;
+    Lane(const Ray& ray, const BinaryBvh& top) : walk(ray, top), best(initial_hit(ray)) {}
+  };
+  const auto record_of = [&](size_t i) {
+    if constexpr (kCount) return StatsRecord{per_ray[i]};
+    else return NoRecord{};
+  };
+  std::vector<Lane> lanes;
+  lanes.reserve(std::min(kGroup, rays.size()));
+  std::vector<uint32_t> served;
+  std::vector<Ray> object_rays;
+  std::vector<Hit> object_hits;
+  std::vector<uint8_t> object_found;
+  std::vector<TraversalStats> object_counts;
+  for (size_t g = 0; g < rays.size(); g += kGroup) {
+    const size_t n = std::min(kGroup, rays.size() - g);
+    lanes.clear();
+    for (size_t r = 0; r < n; ++r) {
+      Lane& lane = lanes.emplace_back(rays[g + r], *top_);
+      auto record = record_of(g + r);
+      start(lane.walk, record);
+      lane.waiting = next_instance(lane.walk, record, lane.instance);
+    }
+    for (size_t first = 0;;) {
+      while (first < n && !lanes[first].waiting) ++first;
+      if (first == n) break;
+      const uint32_t k = lanes[first].instance;
+      const SceneInstance& inst = instances_[k];
+      served.clear();
+      object_rays.clear();
+      for (size_t r = first; r < n; ++r)
+        if (lanes[r].waiting && lanes[r].instance == k) {
+          served.push_back(uint32_t(r));
+          object_rays.push_back(to_object(inst, rays[g + r], lanes[r].walk.tmax));
+        }
+      const Structure& s = *meshes_[inst.instance.mesh].structure;
+      const size_t m = served.size();
+      if constexpr (kCount) object_counts.assign(m, TraversalStats{});
+      if constexpr (kClosest) {
+        object_hits.resize(m);
+        if constexpr (kCount) s.closest_batch_counted(object_rays, object_hits, object_counts);
+        else s.closest_batch(object_rays, object_hits);
+      } else {
+        object_found.resize(m);
+        if constexpr (kCount) s.any_batch_counted(object_rays, object_found, object_counts);
+        else s.any_batch(object_rays, object_found);
+      }
+      for (size_t j = 0; j < m; ++j) {
+        Lane& lane = lanes[served[j]];
+        auto record = record_of(g + served[j]);
+        if constexpr (kCount) add_instance_work(record, object_counts[j], lane.entered);
+        if constexpr (kClosest) {
+          take_instance_hit(lane.best, object_hits[j], object_hits[j].valid(), k);
+          lane.walk.tmax = lane.best.t;
+        } else {
+          lane.found = object_found[j] != 0;
+          if (lane.found) lane.walk.tmax = -kInfinity;
+        }
+        lane.waiting = next_instance(lane.walk, record, lane.instance);
+      }
+    }
+    for (size_t r = 0; r < n; ++r) {
+      const Lane& lane = lanes[r];
+      auto record = record_of(g + r);
+      if (!lane.entered) record.ignored();
+      if constexpr (kClosest) hits[g + r] = lane.best.valid() ? lane.best : Hit{};
+      else occluded[g + r] = lane.found;
+    }
+  }
+}
+
+void SceneSnapshot::closest_batch(std::span<const Ray> rays, std::span<Hit> hits,
+                                  std::span<TraversalStats> per_ray) const {
+  if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");
+  if (per_ray.empty()) return trace_batch<true, false>(rays, hits.data(), nullptr, nullptr);
+  if (per_ray.size() != rays.size()) throw std::invalid_argument("per_ray and rays differ in length");
+  trace_batch<true, true>(rays, hits.data(), nullptr, per_ray.data());
+}
+
+void SceneSnapshot::any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded,
+                              std::span<TraversalStats> per_ray) const {
+  if (occluded.size() != rays.size()) throw std::invalid_argument("occluded and rays differ in length");
+  if (per_ray.empty()) return trace_batch<false, false>(rays, nullptr, occluded.data(), nullptr);
+  if (per_ray.size() != rays.size()) throw std::invalid_argument("per_ray and rays differ in length");
+  trace_batch<false, true>(rays, nullptr, occluded.data(), per_ray.data());
 }
 
 const Instance& SceneSnapshot::instance(uint32_t i) const {

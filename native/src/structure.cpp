@@ -64,6 +64,20 @@ void Structure::any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded
   for (size_t i = 0; i < rays.size(); ++i) occluded[i] = any(rays[i]);
 }
 
+void Structure::closest_batch_counted(std::span<const Ray> rays, std::span<Hit> hits,
+                                      std::span<TraversalStats> per_ray) const {
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit h;
+    closest(rays[i], h, per_ray[i]);
+    hits[i] = h;
+  }
+}
+
+void Structure::any_batch_counted(std::span<const Ray> rays, std::span<uint8_t> occluded,
+                                  std::span<TraversalStats> per_ray) const {
+  for (size_t i = 0; i < rays.size(); ++i) occluded[i] = any(rays[i], per_ray[i]);
+}
+
 // Uncounted, a chunk of rays goes to the structure's batch query (the BVH's packets); counted, every
 // ray walks alone, so that each ray's counters are its own walk's.
 void intersect_closest(const Structure& s, std::span<const Ray> rays, std::span<Hit> hits, TraversalStats* stats,

@@ -328,3 +328,45 @@ TEST(BvhPackets, CountedQueriesWalkOneRayAtATime) {
   EXPECT_EQ(batch.box_tests, sum.box_tests);
   EXPECT_EQ(batch.triangle_tests, sum.triangle_tests);
 }
+
+// The renderer's counted packets: every ray of a packet counts, into its own counters, what its own
+// counted walk counts, and gets its hit, in every contract, width and triangle test, for camera rays,
+// shadow rays and incoherent rays forced into packets (those leave for their own order, and still count
+// as alone).
+TEST(BvhPackets, CountedPacketsCountEachRayAsItsOwnWalk) {
+  const MeshPtr mesh = shipped("goathead.obj");
+  for (const Config& c : configs()) {
+    const Bvh s = bvh_of(mesh, c);
+    const std::vector<Ray> camera = camera_rays(*mesh, 64, 48, glm::vec3(0, 0, 1));
+    const std::vector<Ray> sets[] = {camera, shadow_rays(*mesh, s, camera), random_rays(*mesh, 2000, 7)};
+    for (const std::vector<Ray>& rays : sets) {
+      const std::string what = name_of(c) + ", " + std::to_string(rays.size()) + " rays";
+      std::vector<TraversalStats> closest_counts(rays.size()), any_counts(rays.size());
+      for (size_t i = 0; i < rays.size(); i += Bvh::kPacketSize) {
+        const size_t n = std::min(size_t(Bvh::kPacketSize), rays.size() - i);
+        Hit hits[Bvh::kPacketSize];
+        uint8_t occluded[Bvh::kPacketSize];
+        s.closest_packet(std::span<const Ray>(&rays[i], n), std::span<Hit>(hits, n), nullptr,
+                         std::span<TraversalStats>(&closest_counts[i], n));
+        s.any_packet(std::span<const Ray>(&rays[i], n), std::span<uint8_t>(occluded, n), nullptr,
+                     std::span<TraversalStats>(&any_counts[i], n));
+        for (size_t r = 0; r < n; ++r) {
+          TraversalStats own, own_any;
+          Hit h;  // a default Hit on a miss, as the packet gives
+          s.closest(rays[i + r], h, own);
+          ASSERT_EQ(std::memcmp(&hits[r], &h, sizeof(Hit)), 0) << what << " ray " << i + r;
+          ASSERT_EQ(occluded[r], uint8_t(s.any(rays[i + r], own_any))) << what << " ray " << i + r;
+          for (const CounterInfo& k : kCounters) {
+            ASSERT_EQ(closest_counts[i + r].*k.field, own.*k.field) << what << " " << k.name << " ray " << i + r;
+            ASSERT_EQ(any_counts[i + r].*k.field, own_any.*k.field) << what << " any " << k.name << " ray " << i + r;
+          }
+        }
+      }
+      // And through the batch, which groups the coherent rays.
+      std::vector<Hit> hits(rays.size());
+      std::vector<TraversalStats> batch(rays.size());
+      s.closest_batch_counted(rays, hits, batch);
+      EXPECT_EQ(std::memcmp(batch.data(), closest_counts.data(), batch.size() * sizeof(TraversalStats)), 0) << what;
+    }
+  }
+}

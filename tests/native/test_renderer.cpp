@@ -3,6 +3,7 @@
 #include "raylab/renderer.h"
 #include "raylab/scene.h"
 #include "raylab/triangle_intersection.h"
+#include "support.h"
 
 #include <gtest/gtest.h>
 #include <glm/gtc/constants.hpp>
@@ -10,6 +11,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <thread>
@@ -545,4 +548,122 @@ TEST(Renderer, AResolutionBeyondTheMemoryBudgetIsRefusedBeforeAnythingIsAllocate
   EXPECT_THROW(render(f.scene, f.camera, f.lights, f.materials, f.settings), std::invalid_argument);
   f.settings.memory_budget = render_buffer_bytes(32, 32);
   EXPECT_FALSE(render(f.scene, f.camera, f.lights, f.materials, f.settings).cancelled);
+}
+
+namespace {
+
+// The goat head, smooth, over a floor, with two more instances (flat, one glass, one metal), a point, a
+// sun, a spot and an area light: camera, shadow, reflection and refraction rays, instances the top
+// level culls and rays that leave packets.
+RenderResult render_goat_scene(Contract contract, bool batches, int super_sampling, int tile_size = 32) {
+  BuildSettings build;
+  build.contract = contract;
+  Scene scene(build);
+  const MeshPtr head = test::shipped("goathead.obj");
+  std::vector<glm::vec3> normals;
+  for (const glm::uvec3& t : head->triangles) {
+    const glm::vec3 n =
+        glm::cross(head->vertices[t.y] - head->vertices[t.x], head->vertices[t.z] - head->vertices[t.x]);
+    normals.insert(normals.end(), {n, n * 0.8f + glm::vec3(0.1f), n * 0.9f - glm::vec3(0.1f)});
+  }
+  const Bounds b = head->bounds();
+  const glm::vec3 c = 0.5f * (b.lo + b.hi);
+  const float r = 0.5f * glm::length(b.hi - b.lo);
+  const uint32_t smooth = scene.add_mesh(head, normals), flat = scene.add_mesh(head);
+  scene.add_instance(smooth, glm::mat4(1.0f), 0);
+  scene.add_instance(flat, glm::translate(glm::mat4(1.0f), glm::vec3(1.2f * r, 0.5f * r, 0)), 1);
+  scene.add_instance(flat, glm::translate(glm::mat4(1.0f), glm::vec3(-1.1f * r, 0.6f * r, 0)), 2);
+  const float z = b.lo.z, s = 4.0f * r;
+  scene.add_instance(scene.add_mesh(test::mesh_of(
+                         {{c.x - s, c.y - s, z}, {c.x + s, c.y - s, z}, {c.x + s, c.y + s, z}, {c.x - s, c.y + s, z}},
+                         {{0, 1, 2}, {0, 2, 3}})),
+                     glm::mat4(1.0f), 3);
+  scene.commit();
+  CameraSettings camera = camera_of(48, 36);
+  camera.matrix_world = glm::inverse(glm::lookAt(c + glm::vec3(0.8f, -2.4f, 1.0f) * r, c, glm::vec3(0, 0, 1)));
+  std::vector<Light> lights(4);
+  const auto at = [&](glm::vec3 p) { return glm::inverse(glm::lookAt(c + p * r, c, glm::vec3(0, 0, 1))); };
+  lights[0].matrix_world = at({-2.0f, -2.0f, 3.0f});
+  lights[0].energy = 1000.0f * r * r;
+  lights[1].type = LightType::Sun;
+  lights[1].energy = 2.0f;
+  lights[1].matrix_world = at({1.0f, 1.0f, 1.0f});
+  lights[2].type = LightType::Spot;
+  lights[2].energy = 500.0f * r * r;
+  lights[2].spot_size = 0.8f;
+  lights[2].matrix_world = at({3.0f, -1.0f, 3.0f});
+  lights[3].type = LightType::Area;
+  lights[3].energy = 300.0f * r * r;
+  lights[3].size = r;
+  lights[3].samples = 2;
+  lights[3].matrix_world = at({-1.0f, 2.0f, 3.0f});
+  std::vector<Material> materials(4);
+  materials[0].specular = 0.3f;
+  materials[1].transmission = 0.8f;
+  materials[1].ior = 1.5f;
+  materials[2].metallic = 0.7f;
+  materials[3].reflectivity = 0.3f;
+  RenderSettings settings;
+  settings.super_sampling = super_sampling;
+  settings.batches = batches;
+  settings.threads = 1;
+  settings.tile_size = tile_size;
+  return render(scene, camera, lights, materials, settings);
+}
+
+void expect_same_render(const RenderResult& a, const RenderResult& b, const std::string& what) {
+  ASSERT_EQ(a.image.size(), b.image.size()) << what;
+  EXPECT_EQ(std::memcmp(a.image.data(), b.image.data(), a.image.size() * sizeof(float)), 0) << what;
+  EXPECT_EQ(a.instance, b.instance) << what;
+  EXPECT_EQ(std::memcmp(a.distance.data(), b.distance.data(), a.distance.size() * sizeof(float)), 0) << what;
+  EXPECT_EQ(std::memcmp(a.pixel_work.data(), b.pixel_work.data(), a.pixel_work.size() * sizeof(TraversalStats)), 0)
+      << what;
+  EXPECT_EQ(a.stats.rays_primary, b.stats.rays_primary) << what;
+  EXPECT_EQ(a.stats.rays_shadow, b.stats.rays_shadow) << what;
+  EXPECT_EQ(a.stats.rays_reflection, b.stats.rays_reflection) << what;
+  EXPECT_EQ(a.stats.rays_refraction, b.stats.rays_refraction) << what;
+  for (const CounterInfo& c : kCounters) EXPECT_EQ(a.stats.traversal.*c.field, b.stats.traversal.*c.field) << what;
+}
+
+void expect_batches_render_as_single_rays() {
+  for (Contract contract : {Contract::Exact, Contract::Fast})
+    for (int ss : {1, 2}) {
+      const std::string what = std::string(contract_name(contract)) + " super_sampling " + std::to_string(ss);
+      const RenderResult batched = render_goat_scene(contract, true, ss);
+      EXPECT_GT(batched.stats.rays_shadow, 0u) << what;
+      EXPECT_GT(batched.stats.rays_refraction, 0u) << what;
+      expect_same_render(batched, render_goat_scene(contract, false, ss), what);
+    }
+}
+
+}  // namespace
+
+// The batches (camera rays of a tile row, shadow rays towards one light: the BVH's counted packets)
+// change nothing a render gives, in both contracts: the image, the buffers, every counter.
+TEST(RendererBatches, TheImageStatsAndCostAreThoseOfOneRayAtATime) { expect_batches_render_as_single_rays(); }
+
+// The same with the 4-wide nodes (SSE), which RAYLAB_BVH_WIDTH=4 makes the default.
+TEST(RendererBatches, TheImageStatsAndCostAreThoseOfOneRayAtATimeWithFourWideNodes) {
+  const char* before = std::getenv("RAYLAB_BVH_WIDTH");
+  const std::string saved = before ? before : "";
+  setenv("RAYLAB_BVH_WIDTH", "4", 1);
+  expect_batches_render_as_single_rays();
+  if (before) setenv("RAYLAB_BVH_WIDTH", saved.c_str(), 1);
+  else unsetenv("RAYLAB_BVH_WIDTH");
+}
+
+// A render traces a block of a tile's pixels together (8 x 8, in sub-blocks of 4 x 2): the image, the
+// buffers and every counter are those of a render one pixel at a time (tiles of one pixel, each its
+// own block), whatever the blocks (tiles of 13 pixels cut them short on both sides; 48 x 36 pixels cut
+// the last tiles), batched or not.
+TEST(RendererBatches, BlocksOfPixelsRenderAsOnePixelAtATime) {
+  for (Contract contract : {Contract::Exact, Contract::Fast})
+    for (bool batches : {true, false}) {
+      const RenderResult alone = render_goat_scene(contract, batches, 1, 1);
+      for (int tile_size : {13, 32}) {
+        const std::string what = std::string(contract_name(contract)) + (batches ? " batches" : " single rays") +
+                                 " tile_size " + std::to_string(tile_size);
+        expect_same_render(render_goat_scene(contract, batches, 1, tile_size), alone, what);
+      }
+    }
 }

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import raylab
+from conftest import load
 
 W, H = 48, 36
 
@@ -394,3 +395,29 @@ def test_bad_normals_raise_value_error():
     mesh = scene.add_mesh(vertices, triangles)
     with pytest.raises(ValueError, match="NaN"):
         scene.replace_mesh(mesh, vertices, triangles, normals=bad)
+
+
+@pytest.mark.parametrize("contract", list(raylab.CONTRACT_INFO))
+@pytest.mark.parametrize("super_sampling", [1, 2])
+def test_batches_render_as_one_ray_at_a_time(contract, super_sampling):
+    """Camera and shadow rays in batches (the default) give the image, buffers, stats and cost of
+    settings batches=False, bit for bit."""
+    scene = raylab.Scene(structure="bvh", contract=contract)
+    floor = scene.add_mesh(*box_mesh((-2, -2, -0.1), (2, 2, 0)))
+    vertices, triangles = load("goathead")
+    head = scene.add_mesh(vertices, triangles)
+    scene.add_instance(floor, BASE, material=0)
+    scene.add_instance(head, BASE @ translation((0.0, 0.0, 0.5)) @ scaling(0.8), material=1)
+    scene.add_instance(head, BASE @ translation((1.0, -0.8, 0.3)) @ scaling(0.3), material=0)
+    scene.commit()
+    settings = dict(super_sampling=super_sampling, threads=1)
+    batched = render(scene, settings)
+    single = render(scene, dict(settings, batches=False))
+    assert batched.stats["rays_shadow"] > 0 and batched.stats["rays_reflection"] > 0
+    for name in ("image", "instance", "distance"):
+        assert getattr(batched, name).tobytes() == getattr(single, name).tobytes(), name
+    assert batched.cost.keys() == single.cost.keys()
+    for name in batched.cost:
+        assert batched.cost[name].tobytes() == single.cost[name].tobytes(), name
+    numbers = {k: v for k, v in batched.stats.items() if k not in ("render_seconds", "build_seconds")}
+    assert numbers == {k: v for k, v in single.stats.items() if k not in ("render_seconds", "build_seconds")}

@@ -35,6 +35,11 @@ struct RenderSettings {
   int tile_size = 32;
   CostRays cost_rays = CostRays::All;           // which of a pixel's rays RenderResult::pixel_work counts
   size_t memory_budget = kDefaultMemoryBudget;  // for the render's buffers: see require_render_memory
+  // Trace the camera rays of a tile's block of 8 x 8 pixels, and its hits' shadow rays towards each
+  // light, in coherent batches
+  // (the BVH's packets); false: one ray at a time. The image, the counters and the cost buffers are the
+  // same bit for bit either way: the switch is there to compare them and their speed.
+  bool batches = true;
 
   void validate() const;  // throws std::invalid_argument naming the bad setting
 };
@@ -55,8 +60,9 @@ struct RenderStats {
 };
 
 // Shared between the renderer and whoever waits for it (any thread). Counted in pixels, not tiles,
-// and the cancel is read before every pixel: a single tile in flight still moves the fraction, and a
-// cancel stops any render, however large its tiles, within one pixel's work per thread.
+// and the cancel is read before every block of a tile (up to 8 x 8 pixels, traced together): a single
+// tile in flight still moves the fraction, and a cancel stops any render, however large its tiles,
+// within one such block's work per thread.
 struct RenderProgress {
   std::atomic<uint64_t> pixels_done{0};
   std::atomic<uint64_t> pixels_total{0};

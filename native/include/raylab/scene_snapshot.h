@@ -77,6 +77,13 @@ class SceneSnapshot {
   bool closest(const Ray& ray, Hit& hit, TraversalStats* stats = nullptr) const;
   bool any(const Ray& ray, TraversalStats* stats = nullptr) const;
   SceneStory story(const Ray& ray) const;
+  // Many rays on the calling thread (the renderer's primary and shadow rays): hits[i] is what closest()
+  // finds for rays[i] (a default Hit on a miss), occluded[i] what any() says, bit for bit; with per_ray
+  // (one per ray) each ray's counters are added to per_ray[i], exactly what closest() or any() counts
+  // for it. Each ray walks the top level as alone; the rays that reach the same instance go to its
+  // structure's batch query together (the BVH traces coherent groups of them as packets).
+  void closest_batch(std::span<const Ray> rays, std::span<Hit> hits, std::span<TraversalStats> per_ray = {}) const;
+  void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded, std::span<TraversalStats> per_ray = {}) const;
 
   size_t mesh_count() const { return meshes_.size(); }
   size_t instance_count() const { return instances_.size(); }
@@ -94,8 +101,16 @@ class SceneSnapshot {
 
  private:
   friend class Scene;  // reuses the top level of the last snapshot when no instance box changed
+  // One ray's walk of the top level, suspended at each instance it visits (scene_snapshot.cpp).
+  struct TopWalk;
+  template <class Recorder>
+  void start(TopWalk& walk, Recorder& record) const;
+  template <class Recorder>
+  bool next_instance(TopWalk& walk, Recorder& record, uint32_t& instance) const;
   template <class Recorder, class Visit>
   void traverse(const Ray& ray, Recorder& record, float& tmax, Visit visit) const;
+  template <bool kClosest, bool kCount>
+  void trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* occluded, TraversalStats* per_ray) const;
   // Runs `query(structure, object_ray, stats)` on instance k, the ray moved to its object space with
   // the far limit `limit`; its work goes into the record, and `entered` becomes true unless the
   // object's structure ignored the ray.
@@ -106,9 +121,10 @@ class SceneSnapshot {
   bool closest(const Ray& ray, Hit& hit, Recorder& record, Query query) const;
   template <class Recorder>
   bool any(const Ray& ray, Recorder& record) const;
-  bool uses_top_level() const;
+  bool uses_top_level() const { return uses_top_level_; }
 
   BuildSettings settings_;
+  bool uses_top_level_;  // the kind's StructureInfo::uses_top_level, read once (every walk asks)
   std::vector<SceneMesh> meshes_;
   std::vector<SceneInstance> instances_;
   std::shared_ptr<const BinaryBvh> top_;

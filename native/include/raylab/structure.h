@@ -109,6 +109,14 @@ class Structure {
   // bit. The default is that loop, one ray at a time; the BVH traces coherent groups as packets.
   virtual void closest_batch(std::span<const Ray> rays, std::span<Hit> hits) const;
   virtual void any_batch(std::span<const Ray> rays, std::span<uint8_t> occluded) const;
+  // The counted batch queries (the renderer's): the same answers, and each ray's counters added to
+  // per_ray[i] (one per ray), exactly what closest(rays[i], hits[i], per_ray[i]) or any(rays[i],
+  // per_ray[i]) counts. The default is that loop; the BVH traces coherent groups as packets that count
+  // every ray's own work.
+  virtual void closest_batch_counted(std::span<const Ray> rays, std::span<Hit> hits,
+                                     std::span<TraversalStats> per_ray) const;
+  virtual void any_batch_counted(std::span<const Ray> rays, std::span<uint8_t> occluded,
+                                 std::span<TraversalStats> per_ray) const;
 
   virtual std::vector<BoxInfo> boxes() const = 0;
   virtual size_t memory_bytes() const = 0;  // the structure's own memory, without the mesh

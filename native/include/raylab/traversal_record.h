@@ -54,8 +54,11 @@ inline TraversalStats& TraversalStats::operator+=(const TraversalStats& o) {
 //   box(node, bounds, depth, hit, t_entry)  one ray/box test
 //   node(node, depth)                       a node entered (visited)
 //   triangle(index, hit)                    one ray/triangle test
+// kIds: whether it reads the ids it is given; a traversal whose ids cost work to find (the BVH's leaf
+// ids, a search) passes 0 to a recorder that does not.
 struct NoRecord {
   static constexpr bool kActive = false;
+  static constexpr bool kIds = false;
   void ray() {}
   void ignored() {}
   void box(uint32_t, const Bounds&, int, bool, float) {}
@@ -65,6 +68,7 @@ struct NoRecord {
 
 struct StatsRecord {
   static constexpr bool kActive = true;
+  static constexpr bool kIds = false;  // counts only
   TraversalStats& stats;
   void ray() { ++stats.rays; }
   void ignored() { ++stats.rays_ignored; }
@@ -127,6 +131,7 @@ struct RayStory {
 // Counts through StatsRecord (a new counter is counted in one place) and keeps every event in order.
 struct StoryRecord {
   static constexpr bool kActive = true;
+  static constexpr bool kIds = true;
   RayStory& story;
   void ray() { StatsRecord{story.stats}.ray(); }
   void ignored() {
