@@ -149,7 +149,7 @@ glm::vec3 terminator_point(const glm::vec3 corner[3], const glm::vec3* normals, 
 struct LightSample {
   glm::vec3 l;  // unit, towards the light
   glm::vec3 e;
-  Ray shadow;
+  Ray shadow{};
   bool traced = false;
   float visible = 1.0f;  // what the shadow ray found: 1 or 0
 };
