@@ -5,6 +5,10 @@
 #   tools/debian_root.sh install NAME PACKAGE...          Debian packages into it, when missing
 #   tools/debian_root.sh run NAME COMMAND...              COMMAND inside it, the checkout mounted at /raylab
 #
+# ensure --arch ARCH NAME SUITE ... makes a root of another architecture (arm64): debootstrap --foreign,
+# its second stage run in the root through qemu-user-static and the kernel's binfmt_misc, which also runs
+# every later command in it (slowly: emulated).
+#
 # The roots live under $RAYLAB_ROOTS (default /var/cache/raylab). Making one needs root and Debian's
 # package mirror; when either is missing this says so and fails: it never passes silently.
 set -euo pipefail
@@ -24,8 +28,24 @@ mirror() {
   echo "${uri:-http://deb.debian.org/debian}"
 }
 
+# qemu-user-static and its binfmt_misc entry for a Debian architecture, so that the host runs its binaries
+# (the F flag: the interpreter is opened once, so it works inside a chroot too).
+foreign_ready() {  # ARCH
+  local qarch
+  case "$1" in arm64) qarch=aarch64 ;; *) die "no qemu mapping for architecture $1" ;; esac
+  if ! [ -x /usr/bin/qemu-$qarch-static ] || ! command -v update-binfmts >/dev/null; then
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq qemu-user-static binfmt-support >/dev/null \
+      || die "qemu-user-static and binfmt-support could not be installed from Debian's packages"
+  fi
+  [ -f /proc/sys/fs/binfmt_misc/status ] || mount -t binfmt_misc binfmt_misc /proc/sys/fs/binfmt_misc \
+    || die "binfmt_misc cannot be mounted: the host cannot run $1 binaries"
+  [ -f /proc/sys/fs/binfmt_misc/qemu-$qarch ] || update-binfmts --enable "qemu-$qarch" >/dev/null \
+    || die "update-binfmts could not register qemu-$qarch"
+}
+
 in_root() {  # NAME COMMAND... with /proc, /dev, /sys and the checkout mounted, all unmounted after
   local dir="$ROOTS/$1"; shift
+  [ -f "$dir/.raylab-arch" ] && foreign_ready "$(cat "$dir/.raylab-arch")"
   mkdir -p "$dir/raylab"
   cp -L /etc/resolv.conf "$dir/etc/resolv.conf" 2>/dev/null || true
   local mounted=()
@@ -43,7 +63,9 @@ in_root() {  # NAME COMMAND... with /proc, /dev, /sys and the checkout mounted, 
   return $rc
 }
 
-ensure() {  # NAME SUITE [PACKAGE...]
+ensure() {  # [--arch ARCH] NAME SUITE [PACKAGE...]
+  local arch=""
+  [ "${1:-}" = "--arch" ] && { arch="$2"; shift 2; }
   local name="$1" suite="$2"; shift 2
   local dir="$ROOTS/$name"
   [ -f "$dir/.raylab-root" ] && return 0
@@ -55,11 +77,16 @@ ensure() {  # NAME SUITE [PACKAGE...]
   local tmp="$dir.partial"
   rm -rf "$tmp"
   # One debootstrap per suite: its result is kept as a tarball that every later root of the suite unpacks.
-  local base="$ROOTS/$suite-minbase.tar"
+  local base="$ROOTS/$suite${arch:+-$arch}-minbase.tar" log="$ROOTS/$suite${arch:+-$arch}.debootstrap.log"
+  [ -n "$arch" ] && foreign_ready "$arch"
   if [ ! -f "$base" ]; then
-    echo "debian_root: debootstrap $suite (minbase, from $(mirror)); about 10 minutes the first time"
-    debootstrap --variant=minbase "$suite" "$tmp" "$(mirror)" > "$ROOTS/$suite.debootstrap.log" 2>&1 \
-      || die "debootstrap $suite failed (is $(mirror) reachable?); see $ROOTS/$suite.debootstrap.log"
+    echo "debian_root: debootstrap $suite ${arch:+$arch }(minbase, from $(mirror)); about 10 minutes the first time${arch:+, more emulated}"
+    debootstrap ${arch:+--arch "$arch" --foreign} --variant=minbase "$suite" "$tmp" "$(mirror)" > "$log" 2>&1 \
+      || die "debootstrap $suite failed (is $(mirror) reachable?); see $log"
+    if [ -n "$arch" ]; then
+      chroot "$tmp" /debootstrap/debootstrap --second-stage >> "$log" 2>&1 \
+        || die "debootstrap's second stage ($arch, emulated) failed; see $log"
+    fi
     tar -C "$tmp" -cf "$base.partial" . && mv "$base.partial" "$base"
   else
     mkdir -p "$tmp" && tar -C "$tmp" -xf "$base"
@@ -67,6 +94,7 @@ ensure() {  # NAME SUITE [PACKAGE...]
   # The mirror may be a frozen snapshot: apt must take its Release files after their Valid-Until date
   # (sid's are valid for a week only).
   echo 'Acquire::Check-Valid-Until "false";' > "$tmp/etc/apt/apt.conf.d/99raylab-snapshot"
+  [ -n "$arch" ] && echo "$arch" > "$tmp/.raylab-arch"
   mv "$tmp" "$dir"
   if [ $# -gt 0 ]; then
     in_root "$name" sh -c "apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $* >/dev/null" \
@@ -81,5 +109,5 @@ case "$cmd" in
   install) name="$1"; shift; [ -f "$ROOTS/$name/.raylab-root" ] || die "no root $name: run ensure first"
     in_root "$name" sh -c 'for p in "$@"; do dpkg-query -W -f="\${Status}" "$p" 2>/dev/null | grep -q "install ok installed" || exec sh -c "apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $* >/dev/null"; done' sh "$@" ;;
   run) name="$1"; shift; [ -f "$ROOTS/$name/.raylab-root" ] || die "no root $name: run ensure first"; in_root "$name" "$@" ;;
-  *) echo "usage: tools/debian_root.sh ensure NAME SUITE [PACKAGE...] | install NAME PACKAGE... | run NAME COMMAND..."; exit 2 ;;
+  *) echo "usage: tools/debian_root.sh ensure [--arch ARCH] NAME SUITE [PACKAGE...] | install NAME PACKAGE... | run NAME COMMAND..."; exit 2 ;;
 esac

@@ -5,7 +5,7 @@
 
 #include "raylab/geometry.h"
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 #include <algorithm>
 #include <cmath>

@@ -177,12 +177,12 @@ class Bvh final : public StructureBase<Bvh> {
     using BoxRayW = Box8Ray;
     using TriangleRayW = ExactTrianglesW<Watertight8Ray>;
     static constexpr int kLeafLanes = 8;
-    __attribute__((target("avx2"))) static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
+    RAYLAB_AVX2 static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
       return intersect_box8(node, r, tmax, t);
     }
     template <bool kAny>
-    __attribute__((target("avx2"))) static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes,
-                                                         float tmin, float tmax, float* t, float* u, float* v) {
+    RAYLAB_AVX2 static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes, float tmin, float tmax,
+                                     float* t, float* u, float* v) {
       return intersect_watertight8<kAny>(r.w, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
     }
   };
@@ -213,12 +213,12 @@ class Bvh final : public StructureBase<Bvh> {
     using BoxRayW = FastBox8Ray;
     using TriangleRayW = FastTriangles<FastTriangle8Ray>;
     static constexpr int kLeafLanes = 8;
-    __attribute__((target("avx2,fma"))) static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
+    RAYLAB_AVX2_FMA static int test(const Node& node, const BoxRayW& r, float tmax, float t[8]) {
       return fast_box8(node, r, tmax, t);
     }
     template <bool kAny>
-    __attribute__((target("avx2,fma"))) static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes,
-                                                             float tmin, float tmax, float* t, float* u, float* v) {
+    RAYLAB_AVX2_FMA static int triangles(const TriangleRayW& r, const TrianglePacket* p, int lanes, float tmin,
+                                         float tmax, float* t, float* u, float* v) {
       return intersect_fast8<kAny>(r.r, p[0], lanes > 4 ? p[1] : p[0], (1 << lanes) - 1, tmin, tmax, t, u, v);
     }
   };
@@ -236,13 +236,13 @@ class Bvh final : public StructureBase<Bvh> {
   // The AVX2 instance of the one traversal: traverse_wide and everything it calls are inlined here,
   // so the 8-box test is too.
   template <bool kClosest, class Recorder>
-  __attribute__((target("avx2"))) bool traverse8(const Ray& ray, Hit* hit, Recorder& record) const {
+  RAYLAB_AVX2 bool traverse8(const Ray& ray, Hit* hit, Recorder& record) const {
     return traverse_wide<Avx8, kClosest>(ray, hit, record);
   }
   // The fast contract's, with FMA (which the exact instance must not have: its lanes round as the
   // scalar tests do).
   template <bool kClosest, class Recorder>
-  __attribute__((target("avx2,fma"))) bool traverse8_fast(const Ray& ray, Hit* hit, Recorder& record) const {
+  RAYLAB_AVX2_FMA bool traverse8_fast(const Ray& ray, Hit* hit, Recorder& record) const {
     return traverse_wide<FastAvx8, kClosest>(ray, hit, record);
   }
 
@@ -316,11 +316,9 @@ class Bvh final : public StructureBase<Bvh> {
                     const PacketEntry* packet_stack, int packet_size, int r, const Entry* children, int count,
                     Hit& best, Recorder& record) const;
   template <bool kClosest, bool kSameOrder, bool kCount>
-  __attribute__((target("avx2"))) uint32_t packet8(const Ray* rays, int n, Hit* hits, uint8_t* out,
-                                                   TraversalStats* lanes) const;
+  RAYLAB_AVX2 uint32_t packet8(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const;
   template <bool kClosest, bool kCount>
-  __attribute__((target("avx2,fma"))) uint32_t packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
-                                                            TraversalStats* lanes) const;
+  RAYLAB_AVX2_FMA uint32_t packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const;
   template <bool kClosest>
   uint32_t packet(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const;
   template <bool kClosest>

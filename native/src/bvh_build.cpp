@@ -7,7 +7,7 @@
 #include <tbb/parallel_sort.h>
 #include <tbb/task_group.h>
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 #include <algorithm>
 #include <bit>

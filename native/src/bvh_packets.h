@@ -42,9 +42,8 @@ struct PacketLanes {
 // Tests the used children of `node` against the lanes of `lanes` (each lane's far limit in `tmax`):
 // writes t_entry[child][lane] and hit_by[child] (the lanes among `lanes` that hit it) and returns the
 // lanes that hit any child. intersect_box8's operations:
-__attribute__((target("avx2"))) inline uint32_t packet_node_exact(const Bvh8Node& node, const PacketLanes& p,
-                                                                  const float* tmax, uint32_t lanes,
-                                                                  float (*t_entry)[8], uint32_t* hit_by) {
+RAYLAB_AVX2 inline uint32_t packet_node_exact(const Bvh8Node& node, const PacketLanes& p, const float* tmax,
+                                              uint32_t lanes, float (*t_entry)[8], uint32_t* hit_by) {
   const __m256 pad = _mm256_load_ps(p.pad), tmin = _mm256_load_ps(p.tmin), limit = _mm256_load_ps(tmax);
   const __m256 scale = _mm256_set1_ps(kBoxFarScale);
   uint32_t any = 0;
@@ -71,9 +70,8 @@ __attribute__((target("avx2"))) inline uint32_t packet_node_exact(const Bvh8Node
 }
 
 // fast_box8's:
-__attribute__((target("avx2,fma"))) inline uint32_t packet_node_fast(const Bvh8Node& node, const PacketLanes& p,
-                                                                     const float* tmax, uint32_t lanes,
-                                                                     float (*t_entry)[8], uint32_t* hit_by) {
+RAYLAB_AVX2_FMA inline uint32_t packet_node_fast(const Bvh8Node& node, const PacketLanes& p, const float* tmax,
+                                                 uint32_t lanes, float (*t_entry)[8], uint32_t* hit_by) {
   const __m256 tmin = _mm256_load_ps(p.tmin), limit = _mm256_load_ps(tmax);
   uint32_t any = 0;
   for (int i = 0; i < 8; ++i) {
@@ -395,14 +393,13 @@ template <class Width, class Recorder>
 }
 
 template <bool kClosest, bool kSameOrder, bool kCount>
-__attribute__((target("avx2"))) uint32_t Bvh::packet8(const Ray* rays, int n, Hit* hits, uint8_t* out,
-                                                      TraversalStats* lanes) const {
+RAYLAB_AVX2 uint32_t Bvh::packet8(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const {
   return packet_walk<Avx8, kClosest, kSameOrder, kCount>(rays, n, hits, out, lanes);
 }
 
 template <bool kClosest, bool kCount>
-__attribute__((target("avx2,fma"))) uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
-                                                               TraversalStats* lanes) const {
+RAYLAB_AVX2_FMA uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                           TraversalStats* lanes) const {
   return packet_walk<FastAvx8, kClosest, true, kCount>(rays, n, hits, out, lanes);
 }
 

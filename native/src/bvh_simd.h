@@ -6,7 +6,7 @@
 
 #include "box_intersection.h"
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 #include <cstdint>
 
@@ -80,8 +80,7 @@ struct Box8Ray {
   __m256 origin[3], inv_dir[3];
   __m256 tmin, pad;
 
-  __attribute__((target("avx2"))) explicit Box8Ray(const BoxRay& r)
-      : tmin(_mm256_set1_ps(r.tmin)), pad(_mm256_set1_ps(r.pad)) {
+  RAYLAB_AVX2 explicit Box8Ray(const BoxRay& r) : tmin(_mm256_set1_ps(r.tmin)), pad(_mm256_set1_ps(r.pad)) {
     for (int a = 0; a < 3; ++a) {
       origin[a] = _mm256_set1_ps(r.origin[a]);
       inv_dir[a] = _mm256_set1_ps(r.inv_dir[a]);
@@ -91,8 +90,7 @@ struct Box8Ray {
 
 // intersect_box4 on eight boxes, operation for operation (the AVX min, max and ordered compare treat
 // NaN as the SSE ones do). Returns the hit mask and writes the entry distances.
-__attribute__((target("avx2"))) inline int intersect_box8(const Bvh8Node& node, const Box8Ray& r, float tmax,
-                                                          float t_entry[8]) {
+RAYLAB_AVX2 inline int intersect_box8(const Bvh8Node& node, const Box8Ray& r, float tmax, float t_entry[8]) {
   __m256 t_near = r.tmin;
   // The far distances' widening (kBoxFarScale) is applied once, to their minimum, instead of to each
   // axis: x -> x * scale rounds monotonically, so min(x_i) * scale == min(x_i * scale) bit for bit, and

@@ -13,7 +13,7 @@
 #include "raylab/contract.h"
 #include "raylab/triangle_packets.h"
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 namespace raylab {
 
@@ -72,7 +72,7 @@ inline int fast_box4(const Bvh4Node& node, const FastBox4Ray& r, float tmax, __m
 
 struct FastBox8Ray {
   __m256 rdir[3], org_rdir[3], tmin;
-  __attribute__((target("avx2,fma"))) explicit FastBox8Ray(const BoxRay& box_ray) {
+  RAYLAB_AVX2_FMA explicit FastBox8Ray(const BoxRay& box_ray) {
     const FastBoxRay r(box_ray);
     for (int a = 0; a < 3; ++a) {
       rdir[a] = _mm256_set1_ps(r.rdir[a]);
@@ -83,8 +83,7 @@ struct FastBox8Ray {
 };
 
 // Eight boxes: one FMA per plane.
-__attribute__((target("avx2,fma"))) inline int fast_box8(const Bvh8Node& node, const FastBox8Ray& r, float tmax,
-                                                         float t_entry[8]) {
+RAYLAB_AVX2_FMA inline int fast_box8(const Bvh8Node& node, const FastBox8Ray& r, float tmax, float t_entry[8]) {
   __m256 t_near = r.tmin, t_far = _mm256_set1_ps(tmax);
   for (int a = 0; a < 3; ++a) {
     const __m256 t0 = _mm256_fmsub_ps(_mm256_load_ps(node.lo[a]), r.rdir[a], r.org_rdir[a]);
@@ -162,7 +161,7 @@ inline int intersect_fast4(const FastTriangle4Ray& r, const TrianglePacket& pack
 
 struct FastTriangle8Ray {
   __m256 org[3], dir[3];
-  __attribute__((target("avx2,fma"))) FastTriangle8Ray(const glm::vec3& origin, const glm::vec3& direction) {
+  RAYLAB_AVX2_FMA FastTriangle8Ray(const glm::vec3& origin, const glm::vec3& direction) {
     for (int a = 0; a < 3; ++a) {
       org[a] = _mm256_set1_ps(origin[a]);
       dir[a] = _mm256_set1_ps(direction[a]);
@@ -171,24 +170,23 @@ struct FastTriangle8Ray {
 };
 
 // Lambdas do not take their function's target: intersect_fast8's helpers.
-__attribute__((target("avx2,fma"))) inline __m256 fast8_row(const TrianglePacket& a, const TrianglePacket& b,
-                                                            int corner, int axis) {
+RAYLAB_AVX2_FMA inline __m256 fast8_row(const TrianglePacket& a, const TrianglePacket& b, int corner, int axis) {
   return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(a.p[corner][axis])), _mm_load_ps(b.p[corner][axis]),
                               1);
 }
-__attribute__((target("avx2,fma"))) inline __m256 fast8_cross(const __m256* x, const __m256* y, int k) {
+RAYLAB_AVX2_FMA inline __m256 fast8_cross(const __m256* x, const __m256* y, int k) {
   const int i = (k + 1) % 3, j = (k + 2) % 3;
   return _mm256_fmsub_ps(x[i], y[j], _mm256_mul_ps(x[j], y[i]));
 }
-__attribute__((target("avx2,fma"))) inline __m256 fast8_dot(const __m256* x, const __m256* y) {
+RAYLAB_AVX2_FMA inline __m256 fast8_dot(const __m256* x, const __m256* y) {
   return _mm256_fmadd_ps(x[2], y[2], _mm256_fmadd_ps(x[1], y[1], _mm256_mul_ps(x[0], y[0])));
 }
 
 // intersect_fast4 on two packets at once (lanes 0-3 `a`'s, 4-7 `b`'s), with FMA.
 template <bool kAny = false>
-__attribute__((target("avx2,fma"))) inline int intersect_fast8(const FastTriangle8Ray& r, const TrianglePacket& a,
-                                                               const TrianglePacket& b, int lanes, float tmin,
-                                                               float tmax, float* t_out, float* u_out, float* v_out) {
+RAYLAB_AVX2_FMA inline int intersect_fast8(const FastTriangle8Ray& r, const TrianglePacket& a, const TrianglePacket& b,
+                                           int lanes, float tmin, float tmax, float* t_out, float* u_out,
+                                           float* v_out) {
   __m256 e1[3], e2[3], tv[3];
   for (int x = 0; x < 3; ++x) {
     e1[x] = fast8_row(a, b, 1, x);
@@ -229,7 +227,7 @@ __attribute__((target("avx2,fma"))) inline int intersect_fast8(const FastTriangl
 
 // Whether this CPU runs the 8-wide fast kernels (AVX2 and FMA, asked once).
 inline bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  static const bool has = RAYLAB_CPU_SUPPORTS("avx2") && RAYLAB_CPU_SUPPORTS("fma");
   return has;
 }
 

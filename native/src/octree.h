@@ -15,7 +15,7 @@
 #include "raylab/triangle_packets.h"
 #include "triangle_loop.h"
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 #include <algorithm>
 #include <bit>
@@ -299,9 +299,9 @@ class Octree final : public StructureBase<Octree> {
 
   // Not inlined: the walk is compiled for SSE, this alone for AVX2.
   template <bool kAny>
-  __attribute__((target("avx2"), noinline)) static int test_packets8(const WatertightRay& ray, const TrianglePacket& a,
-                                                                     const TrianglePacket& b, int lanes, float tmin,
-                                                                     float tmax, float* t, float* u, float* v) {
+  RAYLAB_AVX2 __attribute__((noinline)) static int test_packets8(const WatertightRay& ray, const TrianglePacket& a,
+                                                                 const TrianglePacket& b, int lanes, float tmin,
+                                                                 float tmax, float* t, float* u, float* v) {
     const Watertight8Ray ray8(ray);
     return intersect_watertight8<kAny>(ray8, a, b, lanes, tmin, tmax, t, u, v);
   }

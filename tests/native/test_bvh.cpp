@@ -36,7 +36,9 @@ std::vector<Ray> random_rays(const Bounds& box, size_t n, uint32_t seed) {
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   const float largest = glm::max(glm::max(box.extent().x, box.extent().y), box.extent().z);
   const glm::vec3 extent = glm::max(box.extent(), glm::vec3(0.25f * largest));
-  auto point_in = [&](glm::vec3 lo, glm::vec3 size) { return lo + glm::vec3(unit(rng), unit(rng), unit(rng)) * size; };
+  auto point_in = [&](glm::vec3 lo, glm::vec3 size) {
+    return lo + raylab::test::draw_vec3([&] { return unit(rng); }) * size;
+  };
   std::vector<Ray> rays(n);
   for (size_t i = 0; i < n; ++i) {
     Ray& r = rays[i];

@@ -274,16 +274,16 @@ class Cases {
 
 // The 8-lane test from code built for x86-64-v2: its own AVX2 function, called only after
 // cpu_has_avx2().
-__attribute__((target("avx2"), noinline)) int watertight8(const WatertightRay& w, const TrianglePacket& a,
-                                                          const TrianglePacket& b, float tmin, float tmax, float* t,
-                                                          float* u, float* v) {
+RAYLAB_AVX2 __attribute__((noinline)) int watertight8(const WatertightRay& w, const TrianglePacket& a,
+                                                      const TrianglePacket& b, float tmin, float tmax, float* t,
+                                                      float* u, float* v) {
   const Watertight8Ray w8(w);
   return intersect_watertight8(w8, a, b, 0xff, tmin, tmax, t, u, v);
 }
 
 // The 8-lane any-hit test, the same way.
-__attribute__((target("avx2"), noinline)) int watertight8_any(const WatertightRay& w, const TrianglePacket& a,
-                                                              const TrianglePacket& b, float tmin, float tmax) {
+RAYLAB_AVX2 __attribute__((noinline)) int watertight8_any(const WatertightRay& w, const TrianglePacket& a,
+                                                          const TrianglePacket& b, float tmin, float tmax) {
   const Watertight8Ray w8(w);
   float t[8], u[8], v[8];
   return intersect_watertight8<true>(w8, a, b, 0xff, tmin, tmax, t, u, v);

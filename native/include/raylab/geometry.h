@@ -3,7 +3,7 @@
 
 #include <glm/glm.hpp>
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 #include <algorithm>
 #include <cstdint>

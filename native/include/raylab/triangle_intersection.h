@@ -6,7 +6,7 @@
 #include "raylab/geometry.h"
 #include "raylab/named_table.h"
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 #include <algorithm>
 #include <cmath>

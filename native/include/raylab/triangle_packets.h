@@ -8,7 +8,7 @@
 
 #include "raylab/triangle_intersection.h"
 
-#include <immintrin.h>
+#include "raylab/simd.h"
 
 #include <bit>
 #include <cstddef>
@@ -71,7 +71,7 @@ template <class Recorder>
 
 // Whether this CPU runs the AVX2 kernels (asked once).
 inline bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
+  static const bool has = RAYLAB_CPU_SUPPORTS("avx2");
   return has;
 }
 
@@ -219,7 +219,7 @@ struct Watertight8Ray {
   __m256 sx, sy, sz;
   size_t row[3];  // as in Watertight4Ray
 
-  __attribute__((target("avx2"))) explicit Watertight8Ray(const WatertightRay& r)
+  RAYLAB_AVX2 explicit Watertight8Ray(const WatertightRay& r)
       : ray(r), sx(_mm256_set1_ps(r.sx)), sy(_mm256_set1_ps(r.sy)), sz(_mm256_set1_ps(r.sz)) {
     float o[3];
     shear_frame(r, o, row);
@@ -228,8 +228,8 @@ struct Watertight8Ray {
 };
 
 // One packet_row of two packets: `a`'s four triangles in lanes 0-3, `b`'s in lanes 4-7.
-__attribute__((target("avx2"))) inline __m256 load_packet_pair(const TrianglePacket& a, const TrianglePacket& b,
-                                                               int corner, size_t offset) {
+RAYLAB_AVX2 inline __m256 load_packet_pair(const TrianglePacket& a, const TrianglePacket& b, int corner,
+                                           size_t offset) {
   return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(packet_row(a, corner, offset))),
                               _mm_load_ps(packet_row(b, corner, offset)), 1);
 }
@@ -241,9 +241,8 @@ __attribute__((target("avx2"))) inline __m256 load_packet_pair(const TrianglePac
 // `lanes`, and writes t, u, v of all four lanes at t_out[0..3] (results only where hit).
 // Branch-free, four lanes for about the instructions of one; any hit keeps deciding lane by lane up to
 // the first hit (docs/bench/history.md).
-__attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r, const TrianglePacket& packet,
-                                                        int lanes, float tmin, float tmax, float* t_out, float* u_out,
-                                                        float* v_out) {
+RAYLAB_AVX2 inline int exact_packet(const Watertight8Ray& r, const TrianglePacket& packet, int lanes, float tmin,
+                                    float tmax, float* t_out, float* u_out, float* v_out) {
   const WatertightRay& ray = r.ray;
   // The origin's float lanes in the shear frame's order, widened exactly to double.
   const __m256d ox = _mm256_cvtps_pd(_mm256_castps256_ps128(r.origin[0])),
@@ -301,10 +300,9 @@ __attribute__((target("avx2"))) inline int exact_packet(const Watertight8Ray& r,
 // tmin < t <= tmax and their t, u, v.
 // kAny: as first_hit_lane says.
 template <bool kAny = false>
-__attribute__((target("avx2"))) inline int intersect_watertight8(const Watertight8Ray& r, const TrianglePacket& a,
-                                                                 const TrianglePacket& b, int lanes, float tmin,
-                                                                 float tmax, float t_out[8], float u_out[8],
-                                                                 float v_out[8]) {
+RAYLAB_AVX2 inline int intersect_watertight8(const Watertight8Ray& r, const TrianglePacket& a, const TrianglePacket& b,
+                                             int lanes, float tmin, float tmax, float t_out[8], float u_out[8],
+                                             float v_out[8]) {
   const __m256 sign = _mm256_set1_ps(-0.0f);
   __m256 x[3], y[3], ez[3], az = _mm256_setzero_ps();
   for (int c = 0; c < 3; ++c) {
