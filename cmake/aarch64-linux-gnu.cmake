@@ -1,8 +1,8 @@
-# Cross-compiling raylab for Linux arm64 on an x86-64 Debian host (tools/arm64.sh): Debian's aarch64 GCC
+# Cross-compiling raylab for Linux arm64 on an x86-64 Debian host (./raylab test --arch arm64): Debian's aarch64 GCC
 # (g++-aarch64-linux-gnu) with the arm64 Debian root (tools/debian_root.sh ensure --arch arm64) as the
 # sysroot, whose packages give the libraries, headers, CMake configs and pkg-config files. Programs the
 # build runs (GoogleTest's test discovery, the root's python3 for its module suffix) run through
-# qemu-user with that root as their library prefix (QEMU_LD_PREFIX, set by tools/arm64.sh).
+# qemu-user with that root as their library prefix (QEMU_LD_PREFIX, set by ./raylab test --arch arm64).
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_SYSTEM_PROCESSOR aarch64)
 set(CMAKE_C_COMPILER aarch64-linux-gnu-gcc)
@@ -15,7 +15,7 @@ if(NOT RAYLAB_SYSROOT)
   set(RAYLAB_SYSROOT "$ENV{RAYLAB_SYSROOT}")
 endif()
 if(NOT IS_DIRECTORY "${RAYLAB_SYSROOT}/usr/lib/aarch64-linux-gnu")
-  message(FATAL_ERROR "RAYLAB_SYSROOT (${RAYLAB_SYSROOT}) is not an arm64 Debian root: run tools/arm64.sh")
+  message(FATAL_ERROR "RAYLAB_SYSROOT (${RAYLAB_SYSROOT}) is not an arm64 Debian root: run ./raylab test --arch arm64")
 endif()
 set(CMAKE_SYSROOT "${RAYLAB_SYSROOT}")
 set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)

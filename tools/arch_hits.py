@@ -1,4 +1,4 @@
-"""The same hits on every architecture, bit for bit (tools/arm64.sh).
+"""The same hits on every architecture, bit for bit (./raylab test --arch arm64).
 
     python3 tools/arch_hits.py write FILE.npz   on the host (x86-64): the rays and their hits
     python3 tools/arch_hits.py check FILE.npz   elsewhere (arm64 under qemu): the same rays traced again
