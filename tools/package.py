@@ -69,6 +69,14 @@ COPYRIGHT = ["2025-2026 raylab developers",
              "2005-2021 Intel Corporation (oneTBB, Apache-2.0)",
              "2012 Lee Perry-Smith (goat head mesh, CC BY 3.0)"]
 WEBSITE = "https://github.com/raylab-dev/raylab"
+# What an installed raylab must do (tests/release, the arm64 wheel in its root): every structure finds a
+# triangle's hit; it prints where raylab and its core were loaded from.
+TRACE_CHECK = ("import numpy as np, raylab; "
+               "v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32); t = np.array([[0, 1, 2]], np.uint32); "
+               "h = [raylab.build(v, t, structure=s).intersect(np.array([[0.2, 0.2, 1]], np.float32), "
+               "np.array([[0, 0, -1]], np.float32)) for s in raylab.STRUCTURES]; "
+               "assert all(x.hit[0] and abs(x.t[0] - 1) < 1e-6 for x in h); "
+               "print('TRACED', raylab.__file__, raylab.native.core.__file__, np.__version__)")
 
 
 def python_tag(version=sys.version_info):

@@ -15,12 +15,7 @@ OUT = os.path.join(ROOT, "out")
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 import package  # noqa: E402
 
-TRACE = ("import numpy as np, raylab; "
-         "v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32); t = np.array([[0, 1, 2]], np.uint32); "
-         "h = [raylab.build(v, t, structure=s).intersect(np.array([[0.2, 0.2, 1]], np.float32), "
-         "np.array([[0, 0, -1]], np.float32)) for s in raylab.STRUCTURES]; "
-         "assert all(x.hit[0] and abs(x.t[0] - 1) < 1e-6 for x in h); "
-         "print('TRACED', raylab.__file__, raylab.native.core.__file__, np.__version__)")
+TRACE = package.TRACE_CHECK
 
 
 @pytest.fixture(scope="module")
