@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include <memory>
 #include <random>
@@ -16,6 +17,33 @@
 #include <vector>
 
 namespace raylab::test {
+
+// Sets an environment variable for its lifetime, then puts back what was there (POSIX setenv, or the
+// Windows C runtime's _putenv_s: the tests run on both).
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    const char* before = std::getenv(name);
+    had_ = before != nullptr;
+    if (had_) before_ = before;
+    set(value);
+  }
+  ~ScopedEnv() { set(had_ ? before_.c_str() : nullptr); }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  void set(const char* value) {
+#ifdef _WIN32
+    _putenv_s(name_.c_str(), value ? value : "");  // an empty value removes it
+#else
+    if (value) setenv(name_.c_str(), value, 1);
+    else unsetenv(name_.c_str());
+#endif
+  }
+  std::string name_, before_;
+  bool had_ = false;
+};
 
 inline MeshPtr mesh_of(std::vector<glm::vec3> vertices, std::vector<glm::uvec3> triangles) {
   auto mesh = std::make_shared<TriangleMesh>();

@@ -644,12 +644,8 @@ TEST(RendererBatches, TheImageStatsAndCostAreThoseOfOneRayAtATime) { expect_batc
 
 // The same with the 4-wide nodes (SSE), which RAYLAB_BVH_WIDTH=4 makes the default.
 TEST(RendererBatches, TheImageStatsAndCostAreThoseOfOneRayAtATimeWithFourWideNodes) {
-  const char* before = std::getenv("RAYLAB_BVH_WIDTH");
-  const std::string saved = before ? before : "";
-  setenv("RAYLAB_BVH_WIDTH", "4", 1);
+  const raylab::test::ScopedEnv width("RAYLAB_BVH_WIDTH", "4");
   expect_batches_render_as_single_rays();
-  if (before) setenv("RAYLAB_BVH_WIDTH", saved.c_str(), 1);
-  else unsetenv("RAYLAB_BVH_WIDTH");
 }
 
 // A render traces a block of a tile's pixels together (8 x 8, in sub-blocks of 4 x 2): the image, the
