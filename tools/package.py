@@ -46,13 +46,13 @@ SKIP_DIRS = {"__pycache__"}
 # What every Linux with a Blender has: the C library, the C++ runtime, the loader, Python itself.
 BASE_LIBRARIES = re.compile(r"^(linux-vdso|ld-linux.*|libc|libm|libpthread|libdl|librt|libstdc\+\+|libgcc_s|"
                             r"libpython\d\.\d+)\.so")
-PLATFORM = "linux-x64"
 # The Linux architectures raylab's wheels are built for: Blender's platform name, the objdump that reads
 # their symbol versions, and for one that is not the host's the cached root (tools/debian_root.sh, run
 # through qemu-user) whose loader resolves its libraries. ELF_MACHINES: e_machine in an ELF header.
 ARCHES = {"x86_64": {"platform": "linux-x64", "objdump": "objdump", "root": None},
           "aarch64": {"platform": "linux-arm64", "objdump": "aarch64-linux-gnu-objdump", "root": "debian12-arm64"}}
 ELF_MACHINES = {0x3E: "x86_64", 0xB7: "aarch64"}
+PLATFORM = ARCHES["x86_64"]["platform"]  # the host's: the legacy add-on's, the release's
 # The arm64 module as ./raylab test --arch arm64 cross-builds (for the arm64 root's Python 3.11).
 ARM64_MODULE = os.path.join(ROOT, "build-arm64", "addon", "raylab", "_raylab.cpython-311-aarch64-linux-gnu.so")
 # The newest symbol versions any shipped library may need (Debian 12's toolchain: glibc 2.36 whose
@@ -311,7 +311,7 @@ def make_wheel(version, module, out_dir, release):
 
 def wheel_platform(wheel):
     """Blender's platform name of a wheel: "linux-x64" for ..._x86_64.whl, "linux-arm64" for ..._aarch64.whl."""
-    return ARCHES[re.search(r"_(x86_64|aarch64)\.whl$", wheel)[1]]["platform"]
+    return ARCHES[re.search(rf"_({'|'.join(ARCHES)})\.whl$", wheel)[1]]["platform"]
 
 
 def manifest(version, wheels, platform):

@@ -102,14 +102,14 @@ def newest_archive(listing, version, where):
 
 
 def blender_python(executable):
-    """(major, minor) of the Python inside the Blender `executable`, as Blender itself reports it."""
+    """(the Python version "3.11", its interpreter) inside the Blender `executable`, as Blender reports them."""
     out = subprocess.run([executable, "-b", "--factory-startup", "--python-expr",
-                          "import sys; print('PYTHON %d.%d' % sys.version_info[:2])"],
+                          "import sys; print('PYTHON %d.%d %s' % (*sys.version_info[:2], sys.executable))"],
                          capture_output=True, text=True, check=True).stdout
-    match = re.search(r"^PYTHON (\d+\.\d+)$", out, re.M)
+    match = re.search(r"^PYTHON (\d+\.\d+) (.+)$", out, re.M)
     if not match:
         raise SystemExit(f"platform_ci: {executable} did not report its Python:\n{out[-2000:]}")
-    return match.group(1)
+    return match.group(1), match.group(2)
 
 
 def download(version, where):
@@ -148,14 +148,11 @@ def blender(args):
         executable = shutil.which(args.local) or args.local
     else:
         executable = download(args.version, this_platform())
-    python = blender_python(executable)
+    python, interpreter = blender_python(executable)
     if not args.local and python != BLENDER_PYTHONS[args.version]:
         raise SystemExit(f"platform_ci: Blender {args.version} runs Python {python}, the table says "
                          f"{BLENDER_PYTHONS[args.version]}: update BLENDER_PYTHONS")
     if not args.local:  # pytest for the headless tests, in Blender's own Python (CI only: PyPI)
-        bundled = subprocess.run([executable, "-b", "--factory-startup", "--python-expr",
-                                  "import sys; print('EXE', sys.executable)"], capture_output=True, text=True)
-        interpreter = re.search(r"^EXE (.+)$", bundled.stdout, re.M).group(1)
         run([interpreter, "-m", "ensurepip"], check=True)
         run([interpreter, "-m", "pip", "install", "pytest"], check=True)
     json.dump({"executable": executable, "version": args.version, "python": python},
