@@ -20,6 +20,10 @@ BUILD="${RAYLAB_WINDOWS_BUILD_DIR:-$ROOT/build-windows}"
 TOOLCHAIN="$ROOT/tools/cmake/windows-x64-mingw.cmake"
 CXX=x86_64-w64-mingw32-g++-posix
 die() { echo "cross_windows: $*" >&2; exit 1; }
+# What the script leaves behind however it ends: a download's work folder, the wineserver it started.
+work="" wine_server=0
+cleanup() { [ -z "$work" ] || rm -rf "$work"; [ $wine_server -eq 0 ] || wineserver -k 2>/dev/null || true; }
+trap cleanup EXIT
 tests=1 compare=1 module=1
 for a in "$@"; do
   case $a in
@@ -50,7 +54,6 @@ cross_install() {  # SOURCE BUILD [cmake arguments...]
 if [ ! -f "$DEPS/bin/libtbb12.dll" ]; then
   echo "cross_windows: oneTBB $tbb_version and GoogleTest for mingw-w64 (a few minutes, once)" >&2
   work=$(mktemp -d)
-  trap 'rm -rf "$work"' EXIT
   rm -rf "$DEPS.partial"
   src=$("$ROOT/tools/debian_source.sh" "onetbb=$tbb_version" "$work")
   # TBB_STRICT off: mingw's GCC warns in TBB's sources, and strict makes warnings errors. A DLL (TBB
@@ -82,8 +85,7 @@ else()
 endif()
 EOF
   rm -rf "$DEPS" && mv "$DEPS.partial" "$DEPS"
-  rm -rf "$work"
-  trap - EXIT
+  rm -rf "$work" && work=""
 fi
 
 start=$SECONDS
@@ -97,10 +99,15 @@ echo "cross_windows: core and tests built in $((SECONDS - start)) s"
 if [ $tests -eq 1 ]; then
   start=$SECONDS
   grep -q -m1 avx2 /proc/cpuinfo && echo "cross_windows: this CPU has AVX2: the AVX2 paths run under wine"
-  # One wineserver for the whole run: each test program would otherwise start its own.
-  "$ROOT/tools/wine_run.sh" cmd /c exit 0 >/dev/null
+  # One wineserver for the whole run, started before any test and stopped when this script ends. Each
+  # wine otherwise starts its own server, which leaves the moment its program ends (persistence 0); a
+  # test started while one was shutting down failed with "a wine server seems to be running, but I
+  # cannot connect to it". `wineserver -p` does nothing while another server runs, so wait for that one.
+  "$ROOT/tools/wine_run.sh" cmd /c exit 0 >/dev/null  # makes the prefix on first use
   export WINEPREFIX="${WINEPREFIX:-$ROOTS/wine64}"
-  wineserver -p 60 2>/dev/null || true  # already running: it stays until the tests end
+  wineserver -w
+  wineserver -p || die "could not start a persistent wineserver"
+  wine_server=1
   (cd "$BUILD" && ctest --output-on-failure -j"$(nproc)")
   echo "cross_windows: C++ tests under wine in $((SECONDS - start)) s"
 fi
@@ -131,14 +138,12 @@ if [ $module -eq 1 ]; then
   headers="$DEPS/cpython-windows"
   if [ ! -f "$headers/python3.11/pyconfig.h" ]; then
     work=$(mktemp -d)
-    trap 'rm -rf "$work"' EXIT
     src=$("$ROOT/tools/debian_source.sh" python3.11 "$work")
     rm -rf "$headers.partial" && mkdir -p "$headers.partial/python3.11"
     cp -r "$src/Include/." "$src/PC/pyconfig.h" "$headers.partial/python3.11/"
     ln -s /usr/include/pybind11 "$headers.partial/pybind11"
     rm -rf "$headers" && mv "$headers.partial" "$headers"
-    rm -rf "$work"
-    trap - EXIT
+    rm -rf "$work" && work=""
   fi
   PYBUILD="$BUILD-python"
   implib="$PYBUILD/libpython311.dll.a"
