@@ -103,11 +103,15 @@ if [ $tests -eq 1 ]; then
   # wine otherwise starts its own server, which leaves the moment its program ends (persistence 0); a
   # test started while one was shutting down failed with "a wine server seems to be running, but I
   # cannot connect to it". `wineserver -p` does nothing while another server runs, so wait for that one.
-  "$ROOT/tools/wine_run.sh" cmd /c exit 0 >/dev/null  # makes the prefix on first use
+  # Then one program starts the prefix's services (services.exe, winedevice.exe...), which live as long
+  # as the server: with their output to /dev/null, not to the first test's pipe, which ctest would wait
+  # on for ever.
+  "$ROOT/tools/wine_run.sh" cmd /c exit 0 </dev/null >/dev/null 2>&1  # makes the prefix on first use
   export WINEPREFIX="${WINEPREFIX:-$ROOTS/wine64}"
   wineserver -w
   wineserver -p || die "could not start a persistent wineserver"
   wine_server=1
+  "$ROOT/tools/wine_run.sh" cmd /c exit 0 </dev/null >/dev/null 2>&1
   (cd "$BUILD" && ctest --output-on-failure -j"$(nproc)")
   echo "cross_windows: C++ tests under wine in $((SECONDS - start)) s"
 fi
