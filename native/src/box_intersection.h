@@ -41,8 +41,9 @@ struct BoxRay {
   // gives no pad (the bare slab test).
   BoxRay(const Ray& ray, const Bounds& root) : BoxRay(ray, effective_direction(ray.direction), root) {}
   // With the ray's effective_direction() already computed (a traversal shares it with its triangle
-  // test: the per-ray setup is a measurable part of a ray that misses or hits early).
-  BoxRay(const Ray& ray, const glm::vec3& effective_dir, const Bounds& root)
+  // test: the per-ray setup is a measurable part of a ray that misses or hits early). Always inlined,
+  // as FastBoxRay's: called out of line, the 4-wide walks' setup depended on LTO's choices.
+  [[gnu::always_inline]] BoxRay(const Ray& ray, const glm::vec3& effective_dir, const Bounds& root)
       : origin(ray.origin), tmin(ray.tmin), tmax(ray.tmax), pad(box_pad(ray.origin, root)) {
     alignas(16) float inv[4];  // one packed division; each lane rounds as 1.0f / d[i]
     _mm_store_ps(inv,
@@ -53,7 +54,7 @@ struct BoxRay {
   // kBoxPadScale times the largest distance, along any axis, from the origin to the root box.
   // Lane-wise, without branches: glm::max(p, q) and std::max's steps are `p < q ? q : p`, which is
   // _mm_max_ps(q, p).
-  static float box_pad(const glm::vec3& origin, const Bounds& root) {
+  [[gnu::always_inline]] static float box_pad(const glm::vec3& origin, const Bounds& root) {
     if (root.empty()) return 0.0f;
     const __m128 o = _mm_setr_ps(origin.x, origin.y, origin.z, 0.0f), sign = _mm_set1_ps(-0.0f);
     const __m128 lo = _mm_andnot_ps(sign, _mm_sub_ps(_mm_setr_ps(root.lo.x, root.lo.y, root.lo.z, 0.0f), o));

@@ -234,15 +234,19 @@ class Bvh final : public StructureBase<Bvh> {
   }
 
   // The AVX2 instance of the one traversal: traverse_wide and everything it calls are inlined here,
-  // so the 8-box test is too.
+  // so the 8-box test is too. Flattened: GCC will not inline an AVX2 kernel into the default-target
+  // templates that call it (traverse_wide, packet_walk), only into this function once they are inlined,
+  // so without `flatten` LTO's heuristics decided it. When the counted packets added call sites they
+  // moved the packet node test and the per-ray setup out of line, and the any-hit packets ran up to
+  // 1.34x slower (docs/bench/history.md). The packet walks (bvh_packets.h) are flattened alike.
   template <bool kClosest, class Recorder>
-  RAYLAB_AVX2 bool traverse8(const Ray& ray, Hit* hit, Recorder& record) const {
+  RAYLAB_AVX2 [[gnu::flatten]] bool traverse8(const Ray& ray, Hit* hit, Recorder& record) const {
     return traverse_wide<Avx8, kClosest>(ray, hit, record);
   }
   // The fast contract's, with FMA (which the exact instance must not have: its lanes round as the
   // scalar tests do).
   template <bool kClosest, class Recorder>
-  RAYLAB_AVX2_FMA bool traverse8_fast(const Ray& ray, Hit* hit, Recorder& record) const {
+  RAYLAB_AVX2_FMA [[gnu::flatten]] bool traverse8_fast(const Ray& ray, Hit* hit, Recorder& record) const {
     return traverse_wide<FastAvx8, kClosest>(ray, hit, record);
   }
 

@@ -393,13 +393,14 @@ template <class Width, class Recorder>
 }
 
 template <bool kClosest, bool kSameOrder, bool kCount>
-RAYLAB_AVX2 uint32_t Bvh::packet8(const Ray* rays, int n, Hit* hits, uint8_t* out, TraversalStats* lanes) const {
+RAYLAB_AVX2 [[gnu::flatten]] uint32_t Bvh::packet8(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                   TraversalStats* lanes) const {
   return packet_walk<Avx8, kClosest, kSameOrder, kCount>(rays, n, hits, out, lanes);
 }
 
 template <bool kClosest, bool kCount>
-RAYLAB_AVX2_FMA uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
-                                           TraversalStats* lanes) const {
+RAYLAB_AVX2_FMA [[gnu::flatten]] uint32_t Bvh::packet8_fast(const Ray* rays, int n, Hit* hits, uint8_t* out,
+                                                            TraversalStats* lanes) const {
   return packet_walk<FastAvx8, kClosest, true, kCount>(rays, n, hits, out, lanes);
 }
 

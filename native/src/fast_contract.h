@@ -35,7 +35,7 @@ struct FastBoxRay {
   float rdir[3], org_rdir[3];
   float tmin;
 
-  explicit FastBoxRay(const BoxRay& r) : tmin(r.tmin) {
+  [[gnu::always_inline]] explicit FastBoxRay(const BoxRay& r) : tmin(r.tmin) {
     for (int a = 0; a < 3; ++a) {
       rdir[a] = std::isinf(r.inv_dir[a]) ? kFastLargeReciprocal : r.inv_dir[a];
       org_rdir[a] = r.origin[a] * rdir[a];
