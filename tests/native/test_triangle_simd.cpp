@@ -297,7 +297,8 @@ RAYLAB_AVX2 __attribute__((noinline)) int watertight8_any(const WatertightRay& w
 // double-precision function, so the fallback is the scalar one). About a million lanes per test
 // over the cases above, each packet tested with a first window (tmin, tmax) and then, for every
 // lane the scalar test hits at t, with tmax = t, tmax just below t, tmin = t, tmin just below t and
-// (just below t, t): the windows where the SIMD test's pre-check on the corners' z range decides.
+// (just below t, t): the windows where the SIMD test's pre-check on the corners' z range and its
+// behind test (a hit provably at or before tmin) decide.
 // The any-hit forms (kAny) return the first lane the scalar test hits, or nothing.
 TEST(TriangleIntersection, SimdLanesGiveTheScalarResultBitForBit) {
   Cases cases(0x5eed2013);
@@ -450,6 +451,57 @@ TEST(TriangleIntersection, SimdLaneKeepsAHitAtADenormalTOnTheWindowsEdge) {
       EXPECT_EQ(std::bit_cast<uint32_t>(t[lane]), std::bit_cast<uint32_t>(h.t));
       EXPECT_EQ(std::bit_cast<uint32_t>(u[lane]), std::bit_cast<uint32_t>(h.u));
       EXPECT_EQ(std::bit_cast<uint32_t>(v[lane]), std::bit_cast<uint32_t>(h.v));
+    }
+  }
+}
+
+// The behind test (a lane whose hit lies provably at or before tmin is rejected in float) at the
+// edge of float: a hit one float step past tmin at t near 2^63, where the float numerator
+// u z0 + v z1 + w z2 and tmin times the determinant both overflowed to infinity and compared equal,
+// so the lane was rejected (found by the comparison above); and, at ordinary scales, the hit kept
+// with tmin one step below t and rejected with tmin = t, as the scalar test decides.
+TEST(TriangleIntersection, SimdBehindTestKeepsAHitJustPastTmin) {
+  struct Repro {
+    glm::vec3 origin, direction, p0, p1, p2;
+  };
+  const Repro cases[] = {
+      {{-0x1.c179b4p+44f, -0x1.e4b26cp+42f, -0x1.16f54p+44f},
+       {0.0f, -0x1p-31f, -0x1.9a223p-69f},
+       {-0x1.c17e02p+44f, -0x1.e52f0ap+42f, -0x1.16f7dap+44f},
+       {-0x1.c167a2p+44f, -0x1.e496dep+42f, -0x1.16c9cap+44f},
+       {-0x1.c15832p+44f, -0x1.e4ea36p+42f, -0x1.16e5e8p+44f}},
+      {{0.25f, 0.25f, 1.0f}, {0.1f, -0.2f, -1.0f}, {-1, -1, 0}, {1, -1, 0}, {0, 1, 0}},
+  };
+  for (const Repro& c : cases) {
+    Ray ray;
+    ray.origin = c.origin;
+    ray.direction = c.direction;
+    const WatertightRay w(ray);
+    TriangleHit h{};
+    ASSERT_TRUE(intersect_watertight(w, c.p0, c.p1, c.p2, 0.0f, kInfinity, h));
+    TrianglePacket packet;
+    for (int lane = 0; lane < 4; ++lane) {
+      for (int axis = 0; axis < 3; ++axis) {
+        packet.p[0][axis][lane] = c.p0[axis];
+        packet.p[1][axis][lane] = c.p1[axis];
+        packet.p[2][axis][lane] = c.p2[axis];
+      }
+      packet.triangle[lane] = uint32_t(lane);
+    }
+    const Watertight4Ray w4(w);
+    float t[4], u[4], v[4];
+    const float below = std::nextafter(h.t, 0.0f);
+    EXPECT_EQ(intersect_watertight4(w4, packet, below, kInfinity, t, u, v), 0xf) << "tmin " << hex(below);
+    EXPECT_EQ(std::bit_cast<uint32_t>(t[0]), std::bit_cast<uint32_t>(h.t));
+    EXPECT_EQ(intersect_watertight4<true>(w4, packet, below, kInfinity, t, u, v), 0x1);
+    EXPECT_EQ(intersect_watertight4(w4, packet, h.t, kInfinity, t, u, v), 0) << "tmin " << hex(h.t);
+    EXPECT_EQ(intersect_watertight4<true>(w4, packet, h.t, kInfinity, t, u, v), 0);
+    if (cpu_has_avx2()) {
+      float t8[8], u8[8], v8[8];
+      EXPECT_EQ(watertight8(w, packet, packet, below, kInfinity, t8, u8, v8), 0xff);
+      EXPECT_EQ(watertight8_any(w, packet, packet, below, kInfinity), 0x1);
+      EXPECT_EQ(watertight8(w, packet, packet, h.t, kInfinity, t8, u8, v8), 0);
+      EXPECT_EQ(watertight8_any(w, packet, packet, h.t, kInfinity), 0);
     }
   }
 }
