@@ -222,7 +222,8 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
     const __m128 det_low =
         _mm_sub_ps(_mm_mul_ps(weights, _mm_set1_ps(1.0f - 0x1p-16f)), _mm_mul_ps(_mm_set1_ps(4.0f), bound));
     const __m128 limit = _mm_sub_ps(_mm_mul_ps(_mm_set1_ps(tmin), det_low), error);
-    const __m128 finite = _mm_and_ps(_mm_cmplt_ps(_mm_andnot_ps(sign, signed_num), infinity), _mm_cmplt_ps(limit, infinity));
+    const __m128 finite =
+        _mm_and_ps(_mm_cmplt_ps(_mm_andnot_ps(sign, signed_num), infinity), _mm_cmplt_ps(limit, infinity));
     candidates &= ~_mm_movemask_ps(_mm_and_ps(_mm_and_ps(one_sign, finite), _mm_cmple_ps(signed_num, limit)));
     if (candidates == 0) return 0;
   }
@@ -380,15 +381,14 @@ RAYLAB_AVX2 inline int intersect_watertight8(const Watertight8Ray& r, const Tria
     const __m256 infinity = _mm256_set1_ps(kInfinity);
     const __m256 num = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, z0), _mm256_mul_ps(v, z1)), _mm256_mul_ps(w, z2));
     const __m256 signed_num = _mm256_xor_ps(num, _mm256_and_ps(one_negative, sign));
-    const __m256 weights = _mm256_add_ps(_mm256_add_ps(_mm256_andnot_ps(sign, u), _mm256_andnot_ps(sign, v)),
-                                         _mm256_andnot_ps(sign, w));
+    const __m256 weights =
+        _mm256_add_ps(_mm256_add_ps(_mm256_andnot_ps(sign, u), _mm256_andnot_ps(sign, v)), _mm256_andnot_ps(sign, w));
     const __m256 zmax = _mm256_max_ps(_mm256_andnot_ps(sign, z0),
                                       _mm256_max_ps(_mm256_andnot_ps(sign, z1), _mm256_andnot_ps(sign, z2)));
-    const __m256 error = _mm256_add_ps(
-        _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(0x1p-16f), weights),
-                                    _mm256_mul_ps(_mm256_set1_ps(4.0f), bound)),
-                      _mm256_add_ps(zmax, smallest)),
-        smallest);
+    const __m256 error = _mm256_add_ps(_mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(0x1p-16f), weights),
+                                                                   _mm256_mul_ps(_mm256_set1_ps(4.0f), bound)),
+                                                     _mm256_add_ps(zmax, smallest)),
+                                       smallest);
     const __m256 det_low = _mm256_sub_ps(_mm256_mul_ps(weights, _mm256_set1_ps(1.0f - 0x1p-16f)),
                                          _mm256_mul_ps(_mm256_set1_ps(4.0f), bound));
     const __m256 limit = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(tmin), det_low), error);
