@@ -4,9 +4,7 @@
 #
 #   tools/cross_windows.sh [--no-tests] [--no-compare] [--no-module]      (./raylab test --windows runs it)
 #
-# --no-compare skips the bit-for-bit comparison: raylab_hit_dump (tests/native/dump) built for Linux (in
-# the host's build folder) and for Windows writes every structure's hits for the same rays, and the
-# files must be equal.
+# --no-compare skips the bit-for-bit comparison with the host's hits (tools/same_hits.sh).
 #
 # Made once and cached in $RAYLAB_ROOTS (/var/cache/raylab): oneTBB built from Debian's own source
 # package with this toolchain, GoogleTest from Debian's /usr/src/googletest, the wine prefix, CPython's
@@ -117,19 +115,7 @@ if [ $tests -eq 1 ]; then
 fi
 
 if [ $compare -eq 1 ]; then
-  start=$SECONDS
-  host_build="${RAYLAB_BUILD_DIR:-$ROOT/build}"
-  [ -f "$host_build/build.ninja" ] || die "no host build in $host_build to compare with (./raylab setup makes it)"
-  cmake --build "$host_build" --target raylab_hit_dump | { grep -v "^\[" || true; }
-  dump=$(mktemp -d)
-  "$host_build/raylab_hit_dump" "$dump/linux-rays" "$dump/linux-hits"
-  "$ROOT/tools/wine_run.sh" "$BUILD/raylab_hit_dump.exe" "$dump/windows-rays" "$dump/windows-hits"
-  same=1
-  cmp "$dump/linux-rays" "$dump/windows-rays" || same=0
-  cmp "$dump/linux-hits" "$dump/windows-hits" || same=0
-  rm -rf "$dump"
-  [ $same -eq 1 ] || die "Linux and Windows differ (above: the rays, or the hits)"
-  echo "cross_windows: Linux's and Windows' hits equal bit for bit ($((SECONDS - start)) s)"
+  "$ROOT/tools/same_hits.sh" "Windows x64" "$ROOT/tools/wine_run.sh" "$BUILD/raylab_hit_dump.exe"
 fi
 
 # The module for CPython 3.11 on Windows (the official Blender 4.2-5.0's Python): a module-only build

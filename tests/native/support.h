@@ -107,6 +107,40 @@ inline std::vector<Ray> random_rays(const TriangleMesh& mesh, size_t count, uint
   return rays;
 }
 
+// A pinhole camera's rays, row by row, looking at the mesh from `side` (a unit axis, +-x or +-z),
+// the image a little wider than the mesh.
+inline std::vector<Ray> camera_rays(const TriangleMesh& mesh, int width, int height, glm::vec3 side) {
+  const Bounds b = mesh.bounds();
+  const glm::vec3 c = b.center(), e = b.extent();
+  const float size = std::max({e.x, e.y, e.z});
+  const glm::vec3 eye = c + 2.5f * size * side;
+  const glm::vec3 forward = -side, up(0.0f, 1.0f, 0.0f);
+  const glm::vec3 right = glm::normalize(glm::cross(forward, up));
+  std::vector<Ray> rays;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float px = (float(x) + 0.5f) / float(width) * 2.0f - 1.0f;
+      const float py = 1.0f - (float(y) + 0.5f) / float(height) * 2.0f;
+      const float aspect = float(width) / float(height);
+      rays.push_back(ray_of(eye, forward + 0.3f * (px * aspect * right + py * up)));
+    }
+  return rays;
+}
+
+// Shadow rays from each hit of `camera` to a point light (tmax 1: the direction reaches the light).
+inline std::vector<Ray> shadow_rays(const TriangleMesh& mesh, const Structure& s, const std::vector<Ray>& camera) {
+  const Bounds b = mesh.bounds();
+  const glm::vec3 light = b.center() + glm::vec3(0.5f, 2.0f, 1.0f) * b.extent();
+  std::vector<Ray> rays;
+  for (const Ray& ray : camera) {
+    Hit h;
+    if (!s.closest(ray, h)) continue;
+    const glm::vec3 p = ray.at(h.t);
+    rays.push_back(ray_of(p, light - p, 1e-4f, 1.0f));
+  }
+  return rays;
+}
+
 // Frame f (of `frames`) of an animation of `rest` for the refit tests: a twist about z and a wave along x that grow
 // with f, and three frames that stress the refit: f = 8 flattens the mesh onto z = 0 (coplanar overlaps, many triangles
 // degenerate to segments), f = 12 collapses the vertices with x above the centre onto one point (degenerate triangles),

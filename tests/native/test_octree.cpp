@@ -50,26 +50,6 @@ MeshPtr large_triangle_mesh() {
   return mesh_of(std::move(v), std::move(t));
 }
 
-// Pinhole-camera rays from 2.5 mesh sizes away through a grid covering the mesh.
-std::vector<Ray> camera_rays(const TriangleMesh& mesh, int side) {
-  const Bounds b = mesh.bounds();
-  const float size = glm::length(b.extent());
-  const glm::vec3 eye = b.center() + glm::vec3(0.3f, 0.2f, 1.0f) * 2.5f * size;
-  const glm::vec3 forward = glm::normalize(b.center() - eye);
-  const glm::vec3 right = glm::normalize(glm::cross(forward, glm::vec3(0, 1, 0)));
-  const glm::vec3 up = glm::cross(right, forward);
-  std::vector<Ray> rays;
-  for (int y = 0; y < side; ++y)
-    for (int x = 0; x < side; ++x) {
-      const float sx = 0.25f * ((x + 0.5f) / side * 2.0f - 1.0f), sy = 0.25f * ((y + 0.5f) / side * 2.0f - 1.0f);
-      Ray r;
-      r.origin = eye;
-      r.direction = glm::normalize(forward + sx * right + sy * up);
-      rays.push_back(r);
-    }
-  return rays;
-}
-
 TraversalStats count_closest(const Structure& s, const std::vector<Ray>& rays) {
   std::vector<Hit> hits(rays.size());
   TraversalStats stats;
@@ -439,7 +419,7 @@ TEST(Octree, StoryOfOneRayShowsTheFourStatuses) {
 
 TEST(Octree, TestsFarFewerTrianglesThanAabb) {
   const MeshPtr bunny = shipped("bunny.obj");
-  const std::vector<Ray> rays = camera_rays(*bunny, 64);
+  const std::vector<Ray> rays = camera_rays(*bunny, 64, 64, glm::vec3(0, 0, 1));
   const TraversalStats aabb = count_closest(*build(bunny, StructureKind::Aabb), rays);
   const TraversalStats octree = count_closest(*build(bunny, StructureKind::Octree, 6, 8), rays);
   const double per_ray_aabb = double(aabb.triangle_tests) / rays.size();
