@@ -196,25 +196,24 @@ inline int intersect_watertight4(const Watertight4Ray& r, const TrianglePacket& 
   candidates &=
       ~_mm_movemask_ps(_mm_or_ps(_mm_cmpgt_ps(below, _mm_set1_ps(tmax)), _mm_cmple_ps(above, _mm_set1_ps(tmin))));
   if (candidates == 0) return 0;
-  const __m128 one_negative = _mm_and_ps(_mm_and_ps(un, vn), wn);
-  const __m128 one_sign = _mm_or_ps(one_negative, _mm_and_ps(_mm_and_ps(up, vp), wp));
+  const __m128 one_sign = _mm_or_ps(_mm_and_ps(_mm_and_ps(un, vn), wn), _mm_and_ps(_mm_and_ps(up, vp), wp));
   // Behind: a lane whose edge functions share one sign beyond the bound and whose hit lies at or
   // before tmin (tmin >= 0) cannot hit: a secondary ray's own triangle, which its tmin or its origin's
   // offset keeps it off, and which every such ray otherwise decided in double. The double t is
-  // (u z0 + v z1 + w z2) / det, det of the lanes' one sign and |det| at least |u| + |v| + |w| less
-  // 3.01 bound; the float numerator lies within 3.01 bound zmax + 2^-20 (|u| + |v| + |w|) zmax of the
-  // double one scaled to the float z (each z within 3u of it: the subtraction, the quotient, the
-  // product). 4 bound, 2^-16 and 1 - 2^-16 leave room for these sums' own rounding (the float t
-  // rounded from a double at most tmin is at most tmin), the FLT_MIN terms for products that
-  // underflow. An overflow anywhere (an infinite numerator or limit) or a NaN keeps the lane.
+  // (u z0 + v z1 + w z2) / det, det of the lanes' one sign and |det| at least |u + v + w| less 3.01
+  // bound (on a one-sign lane the float |u + v + w| is |u| + |v| + |w|, bit for bit); the float
+  // numerator lies within 3.01 bound zmax + 2^-20 |u + v + w| zmax of the double one scaled to the
+  // float z (each z within 3u of it: the subtraction, the quotient, the product; zmax = max(|zlo|,
+  // |zhi|)). 4 bound, 2^-16 and 1 - 2^-16 leave room for these sums' own rounding (the float t rounded
+  // from a double at most tmin is at most tmin), the FLT_MIN terms for products that underflow. An
+  // overflow anywhere (an infinite numerator or limit) or a NaN keeps the lane.
   if (tmin >= 0.0f) {
     const __m128 infinity = _mm_set1_ps(kInfinity);
     const __m128 num = _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, z0), _mm_mul_ps(v, z1)), _mm_mul_ps(w, z2));
-    const __m128 signed_num = _mm_xor_ps(num, _mm_and_ps(one_negative, sign));
-    const __m128 weights =
-        _mm_add_ps(_mm_add_ps(_mm_andnot_ps(sign, u), _mm_andnot_ps(sign, v)), _mm_andnot_ps(sign, w));
-    const __m128 zmax =
-        _mm_max_ps(_mm_andnot_ps(sign, z0), _mm_max_ps(_mm_andnot_ps(sign, z1), _mm_andnot_ps(sign, z2)));
+    const __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
+    const __m128 signed_num = _mm_xor_ps(num, _mm_and_ps(det, sign));
+    const __m128 weights = _mm_andnot_ps(sign, det);
+    const __m128 zmax = _mm_max_ps(_mm_andnot_ps(sign, zlo), _mm_andnot_ps(sign, zhi));
     const __m128 error = _mm_add_ps(
         _mm_mul_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(0x1p-16f), weights), _mm_mul_ps(_mm_set1_ps(4.0f), bound)),
                    _mm_add_ps(zmax, smallest)),
@@ -374,17 +373,16 @@ RAYLAB_AVX2 inline int intersect_watertight8(const Watertight8Ray& r, const Tria
   candidates &= ~_mm256_movemask_ps(_mm256_or_ps(_mm256_cmp_ps(below, _mm256_set1_ps(tmax), _CMP_GT_OQ),
                                                  _mm256_cmp_ps(above, _mm256_set1_ps(tmin), _CMP_LE_OQ)));
   if (candidates == 0) return 0;
-  const __m256 one_negative = _mm256_and_ps(_mm256_and_ps(un, vn), wn);
-  const __m256 one_sign = _mm256_or_ps(one_negative, _mm256_and_ps(_mm256_and_ps(up, vp), wp));
+  const __m256 one_sign =
+      _mm256_or_ps(_mm256_and_ps(_mm256_and_ps(un, vn), wn), _mm256_and_ps(_mm256_and_ps(up, vp), wp));
   // The behind test of intersect_watertight4, operation for operation.
   if (tmin >= 0.0f) {
     const __m256 infinity = _mm256_set1_ps(kInfinity);
     const __m256 num = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, z0), _mm256_mul_ps(v, z1)), _mm256_mul_ps(w, z2));
-    const __m256 signed_num = _mm256_xor_ps(num, _mm256_and_ps(one_negative, sign));
-    const __m256 weights =
-        _mm256_add_ps(_mm256_add_ps(_mm256_andnot_ps(sign, u), _mm256_andnot_ps(sign, v)), _mm256_andnot_ps(sign, w));
-    const __m256 zmax = _mm256_max_ps(_mm256_andnot_ps(sign, z0),
-                                      _mm256_max_ps(_mm256_andnot_ps(sign, z1), _mm256_andnot_ps(sign, z2)));
+    const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+    const __m256 signed_num = _mm256_xor_ps(num, _mm256_and_ps(det, sign));
+    const __m256 weights = _mm256_andnot_ps(sign, det);
+    const __m256 zmax = _mm256_max_ps(_mm256_andnot_ps(sign, zlo), _mm256_andnot_ps(sign, zhi));
     const __m256 error = _mm256_add_ps(_mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(0x1p-16f), weights),
                                                                    _mm256_mul_ps(_mm256_set1_ps(4.0f), bound)),
                                                      _mm256_add_ps(zmax, smallest)),
