@@ -19,4 +19,9 @@ if [ ! -f "$WINEPREFIX/system.reg" ]; then
   wineboot --init >/dev/null 2>&1 || true
   wineserver -w
 fi
-exec wine "$@"
+# Not exec: a program wine fails to start may print nothing (WINEDEBUG=-all hides wine's own errors),
+# so its exit status is said here.
+status=0
+wine "$@" || status=$?
+[ $status -eq 0 ] || echo "wine_run: wine $1 exited with status $status" >&2
+exit $status
