@@ -5,6 +5,7 @@ Runs in the pytest process (/usr/bin/python3), never inside Blender.
 """
 import json
 import os
+import re
 import signal
 import subprocess
 import tempfile
@@ -103,12 +104,22 @@ def run_session(script, report, blend, args=(), outputs=(), out=OUT, **options):
 
 def read_report(path, process=None):
     if not os.path.exists(path):
-        tail = "" if process is None else (process.stdout[-2000:] + process.stderr[-2000:])
+        tail = "" if process is None else (process.stdout[-2000:] + process.stderr[-2000:] + crash_report(process))
         raise AssertionError(f"Blender wrote no report {path}:\n{tail}")
     with open(path) as f:
         report = json.load(f)
     assert "error" not in report, report["error"]
     return report
+
+
+def crash_report(process):
+    """The crash report a crashed Blender wrote ("Writing: /tmp/NAME.crash.txt": the operators it ran and
+    its backtrace), or "" if it wrote none: the clue to a crash seen once, which the log keeps."""
+    match = re.search(r"^Writing: (\S+\.crash\.txt)$", process.stdout + process.stderr, re.MULTILINE)
+    if match is None or not os.path.exists(match.group(1)):
+        return ""
+    with open(match.group(1), errors="replace") as f:
+        return f"\n--- {match.group(1)}\n{f.read()[-4000:]}"
 
 
 def load_rgb(path):
