@@ -63,7 +63,13 @@ print(json.dumps(dict(cancelled=result.cancelled, fractions=seen,
                       untouched_zero=bool((result.image[alpha == 0.0] == 0.0).all()))))
 """
 
+# Ctrl-C raises KeyboardInterrupt only where Python installed its handler: a Python started with SIGINT
+# ignored (a command run with & from a script, as `nohup ./raylab test &`) keeps ignoring it, and the
+# render then ran its twenty minutes. The child installs the handler an interactive Python has.
 SIGINT = SETUP + """
+import signal
+signal.signal(signal.SIGINT, signal.default_int_handler)
+
 def progress(fraction):
     if fraction > 0.0 or progress.calls >= 10:
         print("rendering", flush=True)
