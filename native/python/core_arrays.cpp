@@ -11,7 +11,7 @@ namespace raylab::python {
 
 namespace {
 
-using FloatRows = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using FloatRows = Contiguous<float>;
 
 std::string shape_text(const py::array& a) {
   std::string s = "(";
@@ -37,16 +37,13 @@ FloatRows float_rows(py::handle obj, const char* what, bool single_row_ok) {
   if (!rows && !single)
     throw std::invalid_argument(std::string(what) + " must have shape (N, 3)" + (single_row_ok ? " or (3,)" : "") +
                                 ", got " + shape_text(a));
-  const char k = dtype_kind(a);
-  if (k != 'f' && k != 'i' && k != 'u')
-    throw std::invalid_argument(std::string(what) + " must have a real number dtype (float32 preferred), got " +
-                                std::string(py::str(a.dtype())));
-  return FloatRows::ensure(a);
+  require_real_dtype(a, what);
+  return converted<float>(a, what);
 }
 
 template <class Index>
 void read_triangles(const py::array& a, std::vector<glm::uvec3>& out) {
-  auto idx = py::array_t<Index, py::array::c_style | py::array::forcecast>::ensure(a);
+  auto idx = converted<Index>(a, "triangles");
   const Index* p = idx.data();
   const size_t n = size_t(idx.shape(0));
   out.resize(n);
@@ -181,6 +178,13 @@ std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py:
   std::vector<Ray> rays(n);
   for (size_t i = 0; i < n; ++i) rays[i] = make_ray(o.data() + so * i, d.data() + sd * i, i, tmin, tmax);
   return rays;
+}
+
+void require_real_dtype(const py::array& a, const std::string& what) {
+  const char k = a.dtype().kind();
+  if (k != 'f' && k != 'i' && k != 'u')
+    throw std::invalid_argument(what + " must have a real number dtype (float32 preferred), got " +
+                                std::string(py::str(a.dtype())));
 }
 
 Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin_value, py::handle tmax_value) {

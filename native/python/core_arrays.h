@@ -14,13 +14,48 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <optional>
 #include <span>
+#include <string>
 #include <type_traits>
 #include <vector>
 
 namespace raylab::python {
 
 namespace py = pybind11;
+
+// A C-contiguous array of T with numpy's conversion. numpy may fail to convert (a float64 value past
+// float32's range under `-W error`, a copy past a memory limit): that raises a ValueError naming
+// `what`, chained to numpy's error, never a null array.
+template <class T>
+using Contiguous = py::array_t<T, py::array::c_style | py::array::forcecast>;
+
+template <class T>
+Contiguous<T> converted(py::handle value, const std::string& what) {
+  try {
+    return Contiguous<T>(py::reinterpret_borrow<py::object>(value));
+  } catch (py::error_already_set& e) {
+    const std::string message = what + " cannot be converted to " + std::string(py::str(py::dtype::of<T>()));
+    py::raise_from(e, PyExc_ValueError, message.c_str());
+    throw py::error_already_set();
+  }
+}
+
+// `value` converted as converted() says when numpy reads it as an array of real numbers; nothing when
+// it does not (the caller says which shape it wanted).
+template <class T>
+std::optional<Contiguous<T>> real_array(py::handle value, const std::string& what) {
+  if (value.is_none()) return std::nullopt;
+  py::array a = py::array::ensure(value);  // a null handle when numpy cannot make an array of it
+  if (!a) return std::nullopt;
+  const char k = a.dtype().kind();
+  if (k != 'f' && k != 'i' && k != 'u') return std::nullopt;
+  return converted<T>(a, what);
+}
+
+// The kinds of dtype a numeric parameter takes: real numbers (float, signed and unsigned integers);
+// bool, complex, object and strings raise a ValueError naming `what`.
+void require_real_dtype(const py::array& a, const std::string& what);
 
 // (V,3) real vertices and (T,3) integer triangles -> a validated mesh. Other real dtypes are
 // converted to float32; negative or out-of-range indices and non-finite coordinates raise.

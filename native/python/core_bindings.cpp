@@ -53,12 +53,12 @@ py::tuple mesh_to_arrays(const TriangleMesh& mesh) {
 
 // (P,4) real RGBA rows (or one (4,) row) -> the palette of box_lines; ValueError naming `palette`.
 std::vector<glm::vec4> palette_parameter(py::handle value) {
-  const auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(value);
+  const auto a = real_array<float>(value, "palette");
   const bool shaped =
-      a && ((a.ndim() == 2 && a.shape(1) == 4 && a.shape(0) >= 1) || (a.ndim() == 1 && a.shape(0) == 4));
+      a && ((a->ndim() == 2 && a->shape(1) == 4 && a->shape(0) >= 1) || (a->ndim() == 1 && a->shape(0) == 4));
   if (!shaped) throw py::value_error("palette must be RGBA rows, (P,4) with P >= 1 or (4,), got " + describe(value));
-  std::vector<glm::vec4> palette(size_t(a.size() / 4));
-  std::copy_n(a.data(), a.size(), reinterpret_cast<float*>(palette.data()));
+  std::vector<glm::vec4> palette(size_t(a->size() / 4));
+  std::copy_n(a->data(), a->size(), reinterpret_cast<float*>(palette.data()));
   return palette;
 }
 

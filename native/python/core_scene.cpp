@@ -13,26 +13,26 @@ namespace {
 // numpy's row-major (4,4) object-to-world matrix -> glm's column-major mat4.
 glm::mat4 matrix_from_array(py::handle matrix) {
   if (matrix.is_none()) throw std::invalid_argument("matrix must be a (4, 4) array, got None");
-  auto m = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(matrix);
-  if (!m || m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4)
-    throw std::invalid_argument("matrix must be a (4, 4) array of numbers");
+  const auto m = real_array<float>(matrix, "matrix");
+  if (!m || m->ndim() != 2 || m->shape(0) != 4 || m->shape(1) != 4)
+    throw std::invalid_argument("matrix must be a (4, 4) array of real numbers, got " + describe(matrix));
   glm::mat4 g;
   for (int row = 0; row < 4; ++row)
-    for (int col = 0; col < 4; ++col) g[col][row] = m.at(row, col);
+    for (int col = 0; col < 4; ++col) g[col][row] = m->at(row, col);
   return g;
 }
 
 // Per-corner normals (T,3,3) or per-vertex normals (V,3), expanded to corners, for `mesh`; the
 // scene validates their count and values.
 std::vector<glm::vec3> corner_normals_from_array(const TriangleMesh& mesh, py::handle normals) {
-  auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(normals);
+  const auto a = real_array<float>(normals, "normals");
   const size_t t = mesh.triangles.size(), v = mesh.vertices.size();
-  const bool per_corner = a && a.ndim() == 3 && size_t(a.shape(0)) == t && a.shape(1) == 3 && a.shape(2) == 3;
-  const bool per_vertex = a && a.ndim() == 2 && size_t(a.shape(0)) == v && a.shape(1) == 3;
+  const bool per_corner = a && a->ndim() == 3 && size_t(a->shape(0)) == t && a->shape(1) == 3 && a->shape(2) == 3;
+  const bool per_vertex = a && a->ndim() == 2 && size_t(a->shape(0)) == v && a->shape(1) == 3;
   if (!per_corner && !per_vertex)
     throw std::invalid_argument("normals must be a (T, 3, 3) array of per-corner normals (T = " + std::to_string(t) +
                                 ") or a (V, 3) array of per-vertex normals (V = " + std::to_string(v) + ")");
-  const float* data = a.data();
+  const float* data = (*a).data();
   std::vector<glm::vec3> corners(3 * t);
   for (size_t i = 0; i < 3 * t; ++i) {
     const size_t row = per_corner ? i : mesh.triangles[i / 3][int(i % 3)];

@@ -424,9 +424,10 @@ void bind_render(py::module_& m) {
       "camera_rays",
       [](py::handle camera_dict, py::handle points) {
         const Camera camera(camera_from_dict(camera_dict));
-        auto raster = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(points);
-        if (!raster || raster.ndim() != 2 || raster.shape(1) != 2)
+        const auto points_array = real_array<double>(points, "points");
+        if (!points_array || points_array->ndim() != 2 || points_array->shape(1) != 2)
           throw std::invalid_argument("points must be an (N, 2) array of raster coordinates");
+        const auto& raster = *points_array;
         const py::ssize_t n = raster.shape(0);
         py::array_t<float> origins({n, py::ssize_t(3)}), directions({n, py::ssize_t(3)});
         float* o = origins.mutable_data();

@@ -23,10 +23,12 @@ namespace raylab {
 
 class Bvh final : public StructureBase<Bvh> {
  public:
-  // The builder keeps the binary depth below 48 + log2(n) <= 80. A wide node of k children spans at
-  // least log2(k) binary levels and pushes at most k - 1 entries more than it pops: at most 7/3 per
-  // binary level (k = 8), under 190 in all.
-  static constexpr int kStackSize = 256;
+  // The most entries a walk holds: a wide node spans at least one binary level and pushes at most its
+  // W children (a packet pushes them all), and a ray that leaves its packet adds one node's children.
+  // The collapse opens the largest child box, so most trees need far fewer (the bunny 28), but where
+  // boxes tie (zero area: collinear or tiny triangles) it can open one side only and push W - 1 a
+  // level (3,000 collinear triangles: 315).
+  static constexpr int kStackSize = 8 * kMaxBinaryDepth + 8;
 
   // width: 8 (AVX2), 4 (SSE) or 0 for the widest this CPU runs; RAYLAB_BVH_WIDTH=4 in the environment
   // makes 0 mean 4 (to measure or test the SSE path on an AVX2 machine). 8 without AVX2 is an error.

@@ -31,9 +31,6 @@ constexpr uint32_t kTaskThreshold = 4096;              // smaller subtrees stay 
 constexpr uint32_t kParallelScanThreshold = 1u << 16;  // larger nodes bin their primitives in parallel
 constexpr uint32_t kScanGrain = 1u << 13;
 constexpr ptrdiff_t kPrefetchAhead = 16;  // references (of 32 bytes) ahead of a scan: prefetch_ref
-// Deeper nodes split at the index median, so the depth stays below kMaxSahDepth + log2(n) whatever
-// the input (the traversal stacks rely on it).
-constexpr int kMaxSahDepth = 48;
 // One node visit, in units of one leaf block test. Measured on bunny_hr, dragon and a 1.3M sphere:
 // 2 beats 1 by a few percent (fuller packets, fewer nodes) and higher values change nothing more.
 constexpr float kTraversalCost = kSahTraversalCost;

@@ -46,7 +46,7 @@ Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, C
 
 // Sets the inner slots of node n's subtree from their children, bottom-up (post-order from the
 // node, whatever order the build stored the nodes in); returns the node's box. The depth is the
-// tree's, bounded as Bvh::kStackSize says.
+// tree's, at most kMaxBinaryDepth (bvh_build.h).
 template <int W>
 Bounds refit_inner(std::vector<BvhWideNode<W>>& nodes, uint32_t n) {
   Bounds box;

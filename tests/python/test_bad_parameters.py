@@ -1,13 +1,16 @@
 """Every argument of the Python API that is not an array: a wrong type or range is a short ValueError
 naming the parameter and what it accepts, never pybind11's generic TypeError that prints every
 argument (arrays included) and names none."""
+import os
 import pathlib
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import raylab
-from conftest import MESH_DIR
+from conftest import ADDON, MESH_DIR
 
 VERTICES = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
 TRIANGLES = np.array([[0, 1, 2]], np.uint32)
@@ -190,3 +193,41 @@ def test_good_parameters_of_other_types_still_work():
     sphere = MESH_DIR / "sphere.obj"
     for path in (sphere, str(sphere), bytes(sphere), pathlib.PurePosixPath(sphere)):
         assert raylab.load_mesh(path)[0].shape == (642, 3)
+
+
+# Every entry that converts a float64 array to float32: under `-W error` numpy's overflow warning fails
+# the conversion, which was dereferenced as a null array (a segmentation fault). Run in a child.
+HUGE = "(np.zeros((4, 3)) + 1e300)"
+CONVERSIONS = {
+    "intersect": ("origins", f"st.intersect({HUGE}, np.float32([0, 0, -1]))"),
+    "occluded": ("directions", f"st.occluded(np.float32([0, 0, 1]), {HUGE})"),
+    "statuses": ("origins", f"st.statuses({HUGE}, np.float32([0, 0, -1]))"),
+    "story": ("origin", "st.story(np.zeros(3) + 1e300, np.float32([0, 0, -1]))"),
+    "build": ("vertices", f"raylab.build({HUGE}[:3], T)"),
+    "refit": ("vertices", f"st.refit({HUGE}[:3])"),
+    "add_mesh": ("vertices", f"raylab.Scene().add_mesh({HUGE}[:3], T)"),
+    "refit_mesh": ("vertices", f"sc.refit_mesh(m, {HUGE}[:3])"),
+    "replace_mesh": ("vertices", f"sc.replace_mesh(m, {HUGE}[:3], T)"),
+    "add_instance": ("matrix", "sc.add_instance(m, np.eye(4) * 1e300)"),
+    "scene intersect": ("origins", f"sc.commit(); sc.intersect({HUGE}, np.float32([0, 0, -1]))"),
+}
+
+
+@pytest.mark.parametrize("case", CONVERSIONS)
+def test_a_float64_array_that_cannot_become_float32_is_a_value_error_naming_it(case):
+    name, call = CONVERSIONS[case]
+    code = ("import numpy as np, raylab\n"
+            "V = np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]); T = np.uint32([[0, 1, 2]])\n"
+            "st = raylab.build(V, T); sc = raylab.Scene(); m = sc.add_mesh(V, T)\n"
+            f"try:\n    {call}\nexcept ValueError as e:\n    print(e, '|', type(e.__cause__).__name__)\n")
+    child = subprocess.run([sys.executable, "-W", "error", "-c", code], capture_output=True, text=True, timeout=120,
+                           env={**os.environ, "PYTHONPATH": str(ADDON)})
+    assert (child.returncode, child.stdout.strip()) == (0, f"{name} cannot be converted to float32 | RuntimeWarning"), \
+        child.stderr[-2000:]
+
+
+def test_a_complex_matrix_is_refused():
+    s = raylab.Scene()
+    mesh = s.add_mesh(VERTICES, TRIANGLES)
+    with pytest.raises(ValueError, match=r"matrix must be a \(4, 4\) array of real numbers"):
+        s.add_instance(mesh, np.eye(4, dtype=np.complex64))

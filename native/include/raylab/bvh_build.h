@@ -23,6 +23,12 @@ namespace raylab {
 // and sah_cost (refit.h) use it (its measurement: bvh_build.cpp).
 inline constexpr float kSahTraversalCost = 2.0f;
 
+// Every builder splits nodes deeper than kMaxSahDepth at the index median, so no binary tree over
+// fewer than 2^32 triangles is deeper than kMaxBinaryDepth, whatever the input (the traversal stacks
+// are sized from it: Bvh::kStackSize).
+inline constexpr int kMaxSahDepth = 48;
+inline constexpr int kMaxBinaryDepth = kMaxSahDepth + 32;
+
 // A compact binary node (32 bytes). An inner node's children are nodes[index] and nodes[index + 1];
 // a leaf (count > 0) holds prims[index .. index + count).
 struct BvhNode {
