@@ -136,14 +136,14 @@ class Collapser {
 
 // Copies each leaf's triangles into its packets; unused lanes repeat the packet's first triangle.
 void fill_packets(const TriangleMesh& mesh, const BinaryBvh& binary, const Leaf& leaf, Contract contract,
-                  TrianglePacket* packets) {
+                  float fast_scale, TrianglePacket* packets) {
   for (uint32_t p = 0; p < leaf.count; p += 4) {
     TrianglePacket& packet = packets[leaf.first_packet + p / 4];
     for (uint32_t lane = 0; lane < 4; ++lane) {
       const bool real = p + lane < leaf.count;
       const uint32_t triangle = binary.prims[leaf.first_prim + (real ? p + lane : p)];
       packet.triangle[lane] = real ? triangle : kInvalidIndex;
-      write_packet_lane(packet, int(lane), contract, mesh.vertex(triangle, 0), mesh.vertex(triangle, 1),
+      write_packet_lane(packet, int(lane), contract, fast_scale, mesh.vertex(triangle, 0), mesh.vertex(triangle, 1),
                         mesh.vertex(triangle, 2));
     }
   }
@@ -168,8 +168,9 @@ int chosen_width(int width, Contract contract) {
 // docs/bench/history.md).
 template <int W>
 std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& binary, Contract contract,
-                                    std::vector<BvhWideNode<W>>& nodes, HugeArray<TrianglePacket>& packets,
-                                    size_t& packet_count, std::vector<uint8_t>& binary_depths) {
+                                    float fast_scale, std::vector<BvhWideNode<W>>& nodes,
+                                    HugeArray<TrianglePacket>& packets, size_t& packet_count,
+                                    std::vector<uint8_t>& binary_depths) {
   nodes.reserve(binary.nodes.size() / (W - 1) + 1);
   Collapser<W> collapser(binary, nodes);
   collapser.collapse(0);
@@ -179,7 +180,8 @@ std::vector<uint32_t> collapse_into(const TriangleMesh& mesh, const BinaryBvh& b
   binary_depths = collapser.binary_depths();
   packets = make_huge_array<TrianglePacket>(packet_count);  // every packet is written below
   tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) fill_packets(mesh, binary, leaves[i], contract, packets.get());
+    for (size_t i = r.begin(); i != r.end(); ++i)
+      fill_packets(mesh, binary, leaves[i], contract, fast_scale, packets.get());
   });
   std::vector<uint32_t> first_packets(leaves.size());
   for (size_t i = 0; i < leaves.size(); ++i) first_packets[i] = leaves[i].first_packet;
@@ -220,9 +222,12 @@ Bvh::Bvh(MeshPtr mesh, const BuildSettings& settings, int width)
   const BinaryBvh binary = build_over_triangles(*mesh_, settings_);
   if (binary.nodes.empty()) return;
   root_bounds_ = binary.nodes[0].bounds();
+  if (settings_.contract == Contract::Fast) fast_scale_ = fast_contract_scale(root_bounds_);
+  const Contract contract = settings_.contract;
   leaf_packets_ =
-      width_ == 8 ? collapse_into(*mesh_, binary, settings_.contract, nodes8_, packets_, packet_count_, binary_depth_)
-                  : collapse_into(*mesh_, binary, settings_.contract, nodes4_, packets_, packet_count_, binary_depth_);
+      width_ == 8
+          ? collapse_into(*mesh_, binary, contract, fast_scale_, nodes8_, packets_, packet_count_, binary_depth_)
+          : collapse_into(*mesh_, binary, contract, fast_scale_, nodes4_, packets_, packet_count_, binary_depth_);
 }
 
 std::vector<BoxInfo> Bvh::boxes() const {

@@ -152,7 +152,7 @@ class Bvh final : public StructureBase<Bvh> {
   template <class W>
   struct ExactTrianglesW : ExactTriangles {
     W w;  // refers to tester.watertight: not copyable
-    ExactTrianglesW(const Ray& ray, TriangleTest kind, const glm::vec3& d)
+    ExactTrianglesW(const Ray& ray, TriangleTest kind, const glm::vec3& d, float /*fast_scale*/)
         : ExactTriangles(ray, kind, d), w(tester.watertight) {}
     ExactTrianglesW(const ExactTrianglesW&) = delete;
   };
@@ -191,7 +191,7 @@ class Bvh final : public StructureBase<Bvh> {
   template <class R>
   struct FastTriangles {
     R r;
-    FastTriangles(const Ray& ray, TriangleTest, const glm::vec3& d) : r(ray.origin, d) {}
+    FastTriangles(const Ray& ray, TriangleTest, const glm::vec3& d, float fast_scale) : r(ray.origin, d, fast_scale) {}
   };
   struct FastSse4 {
     using Node = Bvh4Node;
@@ -282,7 +282,7 @@ class Bvh final : public StructureBase<Bvh> {
       if (!visit_children<Width, kClosest>(e, boxw, ray.tmax, record, stack, size)) return false;
       descending = true;
     }
-    const typename Width::TriangleRayW triw(ray, settings_.triangle_test, direction);
+    const typename Width::TriangleRayW triw(ray, settings_.triangle_test, direction, fast_scale_);
     Hit best = initial_hit(ray);
     bool found = false;
     for (;;) {
@@ -471,6 +471,7 @@ class Bvh final : public StructureBase<Bvh> {
   size_t node_count() const { return width_ == 8 ? nodes8_.size() : nodes4_.size(); }
 
   Bounds root_bounds_;
+  float fast_scale_ = 1.0f;  // the fast contract's packets and rays: fast_contract_scale of the mesh
   int width_ = 4;
   // One of the two, by width_. On 4 KiB pages: huge pages were no faster, page walks are not what the
   // node loads wait on.

@@ -231,7 +231,7 @@ template <class Width, bool kClosest, bool kSameOrder, bool kCount>
   uint32_t ready = 0;
   const auto triangles_of = [&](int r) -> const TriangleRayW& {
     if (!((ready >> r) & 1)) {
-      new (triangle_storage[r]) TriangleRayW(rays[r], settings_.triangle_test, direction[r]);
+      new (triangle_storage[r]) TriangleRayW(rays[r], settings_.triangle_test, direction[r], fast_scale_);
       ready |= 1u << r;
     }
     return *std::launder(reinterpret_cast<const TriangleRayW*>(triangle_storage[r]));

@@ -24,7 +24,7 @@ void set_slot(BvhWideNode<W>& node, int i, const Bounds& b) {
 // layout as `source`, unused lanes repeating the packet's first triangle as the build does) and
 // returns the union of its triangles' bounds, as the build computes a leaf's box.
 template <int W>
-Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, Contract contract,
+Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, Contract contract, float fast_scale,
                   const TrianglePacket* source, TrianglePacket* packets) {
   Bounds box;
   const uint32_t first = node.child[i], count = node.count[i];
@@ -35,7 +35,7 @@ Bounds refit_leaf(const TriangleMesh& mesh, const BvhWideNode<W>& node, int i, C
       const uint32_t id = from.triangle[lane];
       to.triangle[lane] = id;
       const uint32_t triangle = id != kInvalidIndex ? id : from.triangle[0];
-      write_packet_lane(to, int(lane), contract, mesh.vertex(triangle, 0), mesh.vertex(triangle, 1),
+      write_packet_lane(to, int(lane), contract, fast_scale, mesh.vertex(triangle, 0), mesh.vertex(triangle, 1),
                         mesh.vertex(triangle, 2));
       if (id != kInvalidIndex)
         for (int c = 0; c < 3; ++c) box.extend(mesh.vertex(triangle, c));
@@ -61,13 +61,14 @@ Bounds refit_inner(std::vector<BvhWideNode<W>>& nodes, uint32_t n) {
 // Leaves first (in parallel: each slot and packet belongs to one node), then the inner slots
 // bottom-up. Returns the root box.
 template <int W>
-Bounds refit_wide(const TriangleMesh& mesh, std::vector<BvhWideNode<W>>& nodes, Contract contract,
+Bounds refit_wide(const TriangleMesh& mesh, std::vector<BvhWideNode<W>>& nodes, Contract contract, float fast_scale,
                   const TrianglePacket* source, TrianglePacket* packets) {
   if (nodes.empty()) return {};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t n = r.begin(); n != r.end(); ++n)
       for (int i = 0; i < W; ++i)
-        if (nodes[n].leaf(i)) set_slot(nodes[n], i, refit_leaf(mesh, nodes[n], i, contract, source, packets));
+        if (nodes[n].leaf(i))
+          set_slot(nodes[n], i, refit_leaf(mesh, nodes[n], i, contract, fast_scale, source, packets));
   });
   return refit_inner(nodes, 0);
 }
@@ -102,8 +103,12 @@ Bvh::Bvh(const Bvh& source, MeshPtr moved)
       binary_depth_(source.binary_depth_) {
   if (mesh_->triangles != source.mesh_->triangles)
     throw std::invalid_argument("bvh refit: the moved mesh must have the source's triangles");
-  root_bounds_ = width_ == 8 ? refit_wide(*mesh_, nodes8_, settings_.contract, source.packets_.get(), packets_.get())
-                             : refit_wide(*mesh_, nodes4_, settings_.contract, source.packets_.get(), packets_.get());
+  // The moved mesh's own scale: a refit may shrink or grow it by any factor.
+  if (settings_.contract == Contract::Fast) fast_scale_ = fast_contract_scale(mesh_->bounds());
+  const Contract contract = settings_.contract;
+  root_bounds_ = width_ == 8
+                     ? refit_wide(*mesh_, nodes8_, contract, fast_scale_, source.packets_.get(), packets_.get())
+                     : refit_wide(*mesh_, nodes4_, contract, fast_scale_, source.packets_.get(), packets_.get());
 }
 
 double Bvh::sah_cost() const {

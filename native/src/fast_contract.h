@@ -6,6 +6,13 @@
 // triangles at a time with SSE and eight with AVX2 and FMA, as Embree's Triangle4 and Triangle8 are.
 // No double precision and no error bounds: a ray through a shared edge or vertex may miss both
 // triangles, a grazing ray may hit off its triangle, and a box may cull a hit that lies on its face.
+//
+// Unlike Embree's, the triangle test works at every scale the coordinate limit accepts: its products
+// are cubes of the coordinates, which overflow float beyond meshes of about 1e12 and fall into
+// denormals (or flush to zero) below about 1e-13. So the packets and each ray's origin and interval
+// are scaled by the power of two that brings the mesh's extent into [1, 2) (fast_contract_scale), and
+// the t found is scaled back: exact operations, so a mesh of ordinary size gets the bits it would
+// unscaled.
 #pragma once
 
 #include "box_intersection.h"
@@ -15,17 +22,30 @@
 
 #include "raylab/simd.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace raylab {
 
 // The reciprocal a zero direction component gets (effective_direction makes tiny components +0).
 inline constexpr float kFastLargeReciprocal = 0x1p60f;
 
+// The power of two the fast contract's triangle test scales a mesh of these bounds by: its largest
+// extent into [1, 2); 1 for an empty or one-point mesh.
+inline float fast_contract_scale(const Bounds& mesh_bounds) {
+  const glm::vec3 extent = mesh_bounds.hi - mesh_bounds.lo;
+  const float largest = std::max({extent.x, extent.y, extent.z});
+  if (!(largest > 0.0f) || !std::isfinite(largest)) return 1.0f;
+  return std::ldexp(1.0f, std::clamp(-std::ilogb(largest), -126, 126));
+}
+
 // Writes one triangle into lane `lane` of a packet as the contract's kernels read it: its corners
-// (exact), or v0, e1 and e2 (fast).
-inline void write_packet_lane(TrianglePacket& packet, int lane, Contract contract, const glm::vec3& v0,
-                              const glm::vec3& v1, const glm::vec3& v2) {
+// (exact), or v0, e1 and e2 times `fast_scale` (fast_contract_scale).
+inline void write_packet_lane(TrianglePacket& packet, int lane, Contract contract, float fast_scale,
+                              const glm::vec3& v0, const glm::vec3& v1, const glm::vec3& v2) {
   const bool edges = contract == Contract::Fast;
-  const glm::vec3 corners[3] = {v0, edges ? v1 - v0 : v1, edges ? v2 - v0 : v2};
+  const float scale = edges ? fast_scale : 1.0f;
+  const glm::vec3 corners[3] = {v0 * scale, (edges ? v1 - v0 : v1) * scale, (edges ? v2 - v0 : v2) * scale};
   for (int c = 0; c < 3; ++c)
     for (int a = 0; a < 3; ++a) packet.p[c][a][lane] = corners[c][a];
 }
@@ -97,12 +117,15 @@ RAYLAB_AVX2_FMA inline int fast_box8(const Bvh8Node& node, const FastBox8Ray& r,
   return _mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(unused), _mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ)));
 }
 
-// The per-ray constants of the fast triangle test: the origin and the (effective) direction.
+// The per-ray constants of the fast triangle test: the origin in the packets' scale
+// (fast_contract_scale), the (effective) direction, and the scale to bring an interval in and a t back.
 struct FastTriangle4Ray {
   __m128 org[3], dir[3];
-  FastTriangle4Ray(const glm::vec3& origin, const glm::vec3& direction) {
+  float scale, unscale;
+  FastTriangle4Ray(const glm::vec3& origin, const glm::vec3& direction, float scale)
+      : scale(scale), unscale(1.0f / scale) {
     for (int a = 0; a < 3; ++a) {
-      org[a] = _mm_set1_ps(origin[a]);
+      org[a] = _mm_set1_ps(origin[a] * scale);
       dir[a] = _mm_set1_ps(direction[a]);
     }
   }
@@ -112,7 +135,8 @@ struct FastTriangle4Ray {
 // R = T x d, the determinant is -d.N and the unnormalised t, u, v are T.N, R.e2 and -R.e1; each is
 // compared against the determinant before the one division, which only a lane that hits pays.
 // Returns the mask of lanes among `lanes` hit with tmin < t <= tmax (t finite) and their t, u, v;
-// kAny: only the first such lane, and no t, u, v.
+// kAny: only the first such lane, and no t, u, v. Both decide by the same t (the division's), so
+// that closest and any hit never disagree.
 template <bool kAny = false>
 inline int intersect_fast4(const FastTriangle4Ray& r, const TrianglePacket& packet, int lanes, float tmin, float tmax,
                            float* t_out, float* u_out, float* v_out) {
@@ -142,28 +166,31 @@ inline int intersect_fast4(const FastTriangle4Ray& r, const TrianglePacket& pack
   const __m128 zero = _mm_setzero_ps();
   __m128 valid = _mm_and_ps(_mm_cmpgt_ps(abs_den, zero), _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmpge_ps(v, zero)));
   valid = _mm_and_ps(valid, _mm_cmple_ps(_mm_add_ps(u, v), abs_den));
-  valid = _mm_and_ps(valid, _mm_and_ps(_mm_cmpgt_ps(t, _mm_mul_ps(abs_den, _mm_set1_ps(tmin))),
-                                       _mm_cmple_ps(t, _mm_mul_ps(abs_den, _mm_set1_ps(tmax)))));
+  valid = _mm_and_ps(valid, _mm_and_ps(_mm_cmpgt_ps(t, _mm_mul_ps(abs_den, _mm_set1_ps(tmin * r.scale))),
+                                       _mm_cmple_ps(t, _mm_mul_ps(abs_den, _mm_set1_ps(tmax * r.scale)))));
   int mask = _mm_movemask_ps(valid) & lanes;
   if (mask == 0) return 0;
-  if constexpr (kAny) return mask & -mask;
   const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), abs_den);
-  const __m128 th = _mm_mul_ps(t, inv);
+  const __m128 th = _mm_mul_ps(_mm_mul_ps(t, inv), _mm_set1_ps(r.unscale));
   // The division can round t past tmax or to infinity: the range holds for the t reported.
   const __m128 in_range =
       _mm_and_ps(_mm_and_ps(_mm_cmpgt_ps(th, _mm_set1_ps(tmin)), _mm_cmple_ps(th, _mm_set1_ps(tmax))),
                  _mm_cmplt_ps(th, _mm_set1_ps(kInfinity)));
+  mask &= _mm_movemask_ps(in_range);
+  if constexpr (kAny) return mask & -mask;
   _mm_storeu_ps(t_out, th);
   _mm_storeu_ps(u_out, _mm_mul_ps(u, inv));
   _mm_storeu_ps(v_out, _mm_mul_ps(v, inv));
-  return mask & _mm_movemask_ps(in_range);
+  return mask;
 }
 
 struct FastTriangle8Ray {
   __m256 org[3], dir[3];
-  RAYLAB_AVX2_FMA FastTriangle8Ray(const glm::vec3& origin, const glm::vec3& direction) {
+  float scale, unscale;
+  RAYLAB_AVX2_FMA FastTriangle8Ray(const glm::vec3& origin, const glm::vec3& direction, float scale)
+      : scale(scale), unscale(1.0f / scale) {
     for (int a = 0; a < 3; ++a) {
-      org[a] = _mm256_set1_ps(origin[a]);
+      org[a] = _mm256_set1_ps(origin[a] * scale);
       dir[a] = _mm256_set1_ps(direction[a]);
     }
   }
@@ -208,21 +235,22 @@ RAYLAB_AVX2_FMA inline int intersect_fast8(const FastTriangle8Ray& r, const Tria
   __m256 valid = _mm256_and_ps(_mm256_cmp_ps(abs_den, zero, _CMP_GT_OQ),
                                _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, zero, _CMP_GE_OQ)));
   valid = _mm256_and_ps(valid, _mm256_cmp_ps(_mm256_add_ps(u, v), abs_den, _CMP_LE_OQ));
-  valid =
-      _mm256_and_ps(valid, _mm256_and_ps(_mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmin)), _CMP_GT_OQ),
-                                         _mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmax)), _CMP_LE_OQ)));
-  const int mask = _mm256_movemask_ps(valid) & lanes;
+  valid = _mm256_and_ps(
+      valid, _mm256_and_ps(_mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmin * r.scale)), _CMP_GT_OQ),
+                           _mm256_cmp_ps(t, _mm256_mul_ps(abs_den, _mm256_set1_ps(tmax * r.scale)), _CMP_LE_OQ)));
+  int mask = _mm256_movemask_ps(valid) & lanes;
   if (mask == 0) return 0;
-  if constexpr (kAny) return mask & -mask;
   const __m256 inv = _mm256_div_ps(_mm256_set1_ps(1.0f), abs_den);
-  const __m256 th = _mm256_mul_ps(t, inv);
+  const __m256 th = _mm256_mul_ps(_mm256_mul_ps(t, inv), _mm256_set1_ps(r.unscale));
   const __m256 in_range = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(th, _mm256_set1_ps(tmin), _CMP_GT_OQ),
                                                       _mm256_cmp_ps(th, _mm256_set1_ps(tmax), _CMP_LE_OQ)),
                                         _mm256_cmp_ps(th, _mm256_set1_ps(kInfinity), _CMP_LT_OQ));
+  mask &= _mm256_movemask_ps(in_range);
+  if constexpr (kAny) return mask & -mask;
   _mm256_storeu_ps(t_out, th);
   _mm256_storeu_ps(u_out, _mm256_mul_ps(u, inv));
   _mm256_storeu_ps(v_out, _mm256_mul_ps(v, inv));
-  return mask & _mm256_movemask_ps(in_range);
+  return mask;
 }
 
 // Whether this CPU runs the 8-wide fast kernels (AVX2 and FMA, asked once).

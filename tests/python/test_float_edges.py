@@ -220,3 +220,33 @@ def test_scene_instances_give_the_brute_force_hit_at_the_edges(sphere):
                 h = scene.intersect(origins[i], directions[i], tmax=float(reference.t[i]))
                 assert h.hit[0] and h.t[0] == reference.t[i], f"trial {trial}, ray {i}: {name} with tmax = t"
                 assert scene.occluded(origins[i], directions[i], tmax=float(reference.t[i])).hit[0], name
+
+
+@pytest.mark.parametrize("scale", [1e-30, 1e-16, 1e-15, 1.0, 1e13, 1e18])
+def test_the_fast_contract_hits_a_triangles_interior_at_every_scale_and_its_queries_agree(scale):
+    # Its triangle test multiplies three coordinates: unscaled, the products overflowed float beyond
+    # meshes of about 1e12 (intersect missed, occluded hit) and fell into denormals below 1e-13.
+    vertices = (np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]) * np.float32(scale)).astype(np.float32)
+    triangles = np.uint32([[0, 1, 2]])
+    origins = (np.float32([[0.25, 0.25, 1.0], [0.1, 0.6, 2.0], [0.7, 0.2, 0.5]]) * np.float32(scale))
+    exact = raylab.build(vertices, triangles).intersect(origins.astype(np.float32), np.float32([0, 0, -1]))
+    fast = raylab.build(vertices, triangles, contract="fast")
+    hits = fast.intersect(origins.astype(np.float32), np.float32([0, 0, -1]))
+    assert hits.hit.all() and exact.hit.all()
+    np.testing.assert_allclose(hits.t, exact.t, rtol=1e-6)
+    assert fast.occluded(origins.astype(np.float32), np.float32([0, 0, -1])).hit.all()
+
+
+@pytest.mark.parametrize("scale", [1e-30, 1e-15, 1e18])
+def test_the_fast_contract_on_a_scaled_mesh_finds_what_it_finds_at_scale_1(scale):
+    vertices, triangles = load("bunny")
+    unit_origins, directions = raylab.rays.camera_rays(vertices, 64)
+    at_one = raylab.build(vertices, triangles, contract="fast").intersect(unit_origins, directions)
+    scaled = (vertices * np.float32(scale)).astype(np.float32)
+    origins, directions = raylab.rays.camera_rays(scaled, 64)
+    for builder in raylab.BUILDERS:
+        fast = raylab.build(scaled, triangles, contract="fast", builder=builder)
+        hits = fast.intersect(origins, directions)
+        assert hits.hit.sum() == at_one.hit.sum() > 500, builder
+        assert (hits.triangle == at_one.triangle).mean() > 0.999, builder
+        np.testing.assert_array_equal(fast.occluded(origins, directions).hit, hits.hit, err_msg=builder)
