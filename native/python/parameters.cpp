@@ -54,6 +54,8 @@ std::string describe(py::handle value) {
     const size_t bits = value.attr("bit_length")().cast<size_t>();
     if (bits > 128) return "an integer of " + std::to_string(bits) + " bits";
     return shortened(py::repr(value).cast<std::string>());
+  } else if (const py::object index = as_index(value)) {
+    return describe(index);  // a numpy integer: its value
   }
   return std::string("a value of type ") + Py_TYPE(p)->tp_name;
 }
@@ -75,7 +77,7 @@ int int32_parameter(py::handle value, const std::string& name) {
 int threads_parameter(py::handle value) {
   if (value.is_none()) return 0;
   return int(integer_parameter(value, "threads", 0, std::numeric_limits<int32_t>::max(),
-                               "None or an integer >= 0 (None or 0: all cores)"));
+                               "None or an integer from 0 to 2147483647 (None or 0: all cores)"));
 }
 
 uint32_t id_parameter(py::handle value, size_t count, const char* what) {
@@ -103,10 +105,11 @@ double number_parameter(py::handle value, const std::string& name) {
 }
 
 size_t memory_budget_parameter(py::handle value, const std::string& name, bool or_none) {
-  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value))
+  const py::object index = as_index(value);  // an int or a numpy integer, as every other setting takes
+  if (!index)
     throw std::invalid_argument(name + " must be a whole number of bytes" + (or_none ? " or None" : "") + ", got " +
                                 describe(value));
-  const py::int_ budget = py::reinterpret_borrow<py::int_>(value);
+  const py::int_ budget = py::reinterpret_borrow<py::int_>(index);
   if (budget < py::int_(1)) throw std::invalid_argument(name + " must be positive, got " + describe(budget));
   return budget > py::int_(std::numeric_limits<size_t>::max()) ? std::numeric_limits<size_t>::max()
                                                                : budget.cast<size_t>();

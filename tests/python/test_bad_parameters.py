@@ -78,7 +78,7 @@ def test_a_bad_build_setting_names_the_parameter(entry, case):
     assert_short_value_error(lambda: SETTINGS_CALLS[entry](**keywords), message)
 
 
-THREADS = "threads must be None or an integer >= 0 (None or 0: all cores), got "
+THREADS = "threads must be None or an integer from 0 to 2147483647 (None or 0: all cores), got "
 # (target, method, arguments, message) for the query parameters of structures and scenes.
 QUERIES = {
     "intersect tmin None": (structure, "intersect", (ORIGINS, DIRECTIONS, None),
@@ -104,6 +104,8 @@ QUERIES = {
     "statuses threads bool": (structure, "statuses", (ORIGINS, DIRECTIONS, 0.0, 1.0, True), THREADS + "True"),
     "scene intersect threads -3": (scene, "intersect", (ORIGINS, DIRECTIONS, 0.0, 1.0, False, -3),
                                    THREADS + "-3"),
+    "split_costs numpy -1": (structure, "split_costs", (np.int32(-1),),
+                             "node must be an integer from 0 to 4294967295, got -1"),
     "scene occluded threads 2**40": (scene, "occluded", (ORIGINS, DIRECTIONS, 0.0, 1.0, False, 2 ** 40),
                                      THREADS + "1099511627776"),
 }
@@ -183,7 +185,8 @@ def test_a_bad_camera_choice_does_not_print_an_array():
 
 def test_good_parameters_of_other_types_still_work():
     """numpy scalars, 0 and 1 for flags, paths as str, bytes or pathlib.Path."""
-    s = raylab.build(VERTICES, TRIANGLES, max_depth=np.int64(3), leaf_size=np.uint8(4))
+    s = raylab.build(VERTICES, TRIANGLES, max_depth=np.int64(3), leaf_size=np.uint8(4),
+                     memory_budget=np.int64(10 ** 8))
     assert (s.max_depth, s.leaf_size) == (3, 4)
     hits = s.intersect(ORIGINS, DIRECTIONS, np.float32(0.5), 2, count=1)
     assert hits.hit.all() and hits.stats["rays"] == 500
