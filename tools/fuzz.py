@@ -3,22 +3,24 @@ mutated OBJ files against the loader.
 
     /usr/bin/python3 tools/fuzz.py [--seconds 60] [--seed 1] [--out out/fuzz]
 
-`./raylab test` runs it for about a minute with a fixed seed; `./raylab fuzz` runs it longer with a new
-seed (and the libFuzzer harnesses of native/fuzz/). Each round builds a mesh of one hostile kind (a soup
-of random triangles at a random scale and offset, a flattened sphere, a grid of shared edges, degenerate
-triangles, a shipped mesh under a random affine map) with random settings, traces rays of hostile kinds
-(near-surface origins, rays at vertices and edges, axis-parallel and denormal directions, tmax just past
-the hit), and checks the contract (README, "Exactness and its limits"): with the watertight test aabb,
-octree and bvh return brute force's closest hit and any-hit answer; with either test no hit has a t
-outside (tmin, tmax] or a non-finite t. Mutated OBJ files (indices past 2^31 and 2^32, numbers of
-hundreds of digits, bytes that are not UTF-8) must load as a valid mesh or raise ValueError/OSError naming
-the file; special files (a FIFO, /dev/zero, a directory) must be refused at once, naming the path. Odd
-threads= values give one thread's answers or a ValueError naming threads. Renders of every structure are
-cancelled at random moments (a progress callback that returns True after a random number of calls, or an
-event another thread sets): each must return, say cancelled exactly when some pixel is left unrendered
-(zero alpha), count the primary rays of the rendered pixels alone, and hold finite pixels. A crash ends
-the process, which is a failure too. Every finding is
-printed with the seed and round that reproduce it, and the rounds' counts go to out/fuzz/summary.json.
+`./raylab test` runs it for about a minute with a fixed seed; `./raylab fuzz` runs it longer with a new seed
+(and the libFuzzer harnesses of native/fuzz/). Each round builds a mesh of one hostile kind (a soup of random
+triangles at a random scale and offset, a flattened sphere, a grid of shared edges, degenerate triangles, a
+shipped mesh under a random affine map, collinear or sorted triangles that make the deepest trees, nested
+clusters), at times scaled by 1e-30 to 1e30, with random settings, traces rays of hostile kinds (near-surface
+origins, rays at vertices and edges, axis-parallel and denormal directions, tmax just past the hit), and
+checks the contract (README, "Exactness and its limits"): with the watertight test aabb, octree and bvh return
+brute force's closest hit and any-hit answer; with either test no hit has a t outside (tmin, tmax] or a non-
+finite t; the fast contract's closest and any hit agree. float64 arrays past float32's range under -W error
+raise a ValueError naming the array. Mutated OBJ files (indices past 2^31 and 2^32, numbers of hundreds of
+digits, bytes that are not UTF-8) must load as a valid mesh or raise ValueError/OSError naming the file;
+special files (a FIFO, /dev/zero, a directory) must be refused at once, naming the path. Odd threads= values
+give one thread's answers or a ValueError naming threads. Renders of every structure are cancelled at random
+moments (a progress callback that returns True after a random number of calls, or an event another thread
+sets): each must return, say cancelled exactly when some pixel is left unrendered (zero alpha), count the
+primary rays of the rendered pixels alone, and hold finite pixels. A crash ends the process, which is a
+failure too. Every finding is printed with the seed and round that reproduce it, and the rounds' counts go to
+out/fuzz/summary.json.
 """
 import argparse
 import json
@@ -88,7 +90,34 @@ def degenerate(rng):
     return vertices, triangles
 
 
-MESHES = {"soup": soup, "grid": grid, "shipped": shipped, "flattened": flattened, "degenerate": degenerate}
+def collinear(rng):
+    """Triangles of consecutive points sorted along a line, some a hair off it: boxes of zero or almost
+    zero area, which tie in the SAH and in the wide collapse and make the deepest trees."""
+    n = 3 * int(rng.integers(100, 3000))
+    direction = unit(rng.normal(size=3))
+    along = np.sort(rng.uniform(0, 1, n)) if rng.random() < 0.7 else rng.uniform(0, 1, n)
+    vertices = along[:, None] * direction
+    off = rng.random(n) < float(rng.choice([0.0, 0.05, 0.5]))
+    vertices[off] += rng.normal(size=(int(off.sum()), 3)) * 10.0 ** rng.uniform(-9, -3)
+    return vertices, np.arange(n, dtype=np.uint32).reshape(-1, 3)
+
+
+def clustered(rng):
+    """Clusters of small triangles whose sizes span many orders of magnitude, nested in one another."""
+    clusters = int(rng.integers(2, 12))
+    parts = []
+    for k in range(clusters):
+        size = 10.0 ** -float(rng.uniform(0, 6 + 2 * k))
+        centre = rng.normal(size=3) * size * 10
+        parts.append(rng.normal(size=(3 * int(rng.integers(3, 80)), 3)) * size + centre)
+    vertices = np.concatenate(parts)
+    return vertices, np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3)
+
+
+MESHES = {"soup": soup, "grid": grid, "shipped": shipped, "flattened": flattened, "degenerate": degenerate,
+          "collinear": collinear, "clustered": clustered}
+# Each mesh at a random scale at times, within the coordinate limit or past it (refused at build).
+SCALE_EXPONENTS = (-30, 30)
 
 
 # --- rays ----------------------------------------------------------------------------------------------
@@ -186,6 +215,8 @@ def compare(name, got, expected, kinds):
 def trace_round(rng, round_, findings, counts):
     kind = str(rng.choice(list(MESHES)))
     vertices, triangles = MESHES[kind](rng)
+    if rng.random() < 0.25:
+        vertices = vertices * 10.0 ** rng.uniform(*SCALE_EXPONENTS)
     vertices32 = np.asarray(vertices, np.float32)
     if not np.isfinite(vertices32).all():
         return
@@ -232,6 +263,17 @@ def trace_round(rng, round_, findings, counts):
         if not np.array_equal(occluded, reference_any.hit):
             findings.add(round_, f"{name} ({test}) on {kind}: any-hit differs from brute force on "
                                  f"{int((occluded != reference_any.hit).sum())} rays")
+    # The fast contract promises less than brute force's hits, but its closest and any hit never disagree.
+    try:
+        fast = raylab.build(vertices32, triangles, contract="fast", builder=builder)
+    except (ValueError, raylab.BuildError):
+        fast = None
+    if fast is not None:
+        hit = fast.intersect(origins, directions, tmin=tmin).hit
+        if not np.array_equal(fast.occluded(origins, directions, tmin=tmin).hit, hit):
+            findings.add(round_, f"bvh (fast, builder {builder}) on {kind}: closest and any hit disagree on "
+                                 f"{int((fast.occluded(origins, directions, tmin=tmin).hit != hit).sum())} rays")
+        counts["rays"] += 2 * len(origins)
     # tmax just past brute force's hit (the shadow ray to a light on the surface): one call per ray.
     hit = np.flatnonzero(reference.hit & np.isfinite(reference.t)) if test == "watertight" else []
     for i in rng.choice(hit, min(len(hit), 40), replace=False) if len(hit) else []:
@@ -244,6 +286,33 @@ def trace_round(rng, round_, findings, counts):
             if not structures[name].occluded(origins[i], directions[i], tmin=tmin, tmax=tmax).hit[0]:
                 findings.add(round_, f"{name} ({test}) on {kind}: ray {i} occluded misses with tmax just past the hit")
         counts["rays"] += 2 * len(ACCELERATED)
+
+
+# --- float64 input ------------------------------------------------------------------------------------
+
+def float64_round(rng, round_, findings, counts):
+    """float64 arrays past float32's range under `-W error` (the warning fails numpy's conversion): each
+    entry raises a ValueError naming the array, never a crash."""
+    import warnings
+    vertices = np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    triangles = np.uint32([[0, 1, 2]])
+    huge = np.zeros((int(rng.integers(1, 5)), 3)) + float(rng.choice([1e39, 1e300, -3.5e38]))
+    structure = raylab.build(vertices, triangles)
+    scene = raylab.Scene()
+    mesh = scene.add_mesh(vertices, triangles)
+    calls = {"origins": lambda: structure.intersect(huge, [0, 0, -1]),
+             "directions": lambda: structure.occluded([0, 0, 1], huge),
+             "vertices": lambda: scene.replace_mesh(mesh, huge[:1].repeat(3, axis=0), triangles)}
+    for name, call in calls.items():
+        with warnings.catch_warnings(), np.errstate(all="warn"):
+            warnings.simplefilter("error")
+            try:
+                call()
+                findings.add(round_, f"float64 {name} past float32's range under -W error was accepted")
+            except ValueError as error:
+                if not str(error).startswith(name):
+                    findings.add(round_, f"float64 {name} under -W error: the error does not name it: {error}")
+        counts["float64_calls"] += 1
 
 
 # --- threads= -------------------------------------------------------------------------------------------
@@ -476,7 +545,7 @@ def main():
     print(f"fuzz: seed {seed}, {args.seconds:.0f} s", flush=True)
     findings = Findings(seed)
     counts = dict(rounds=0, builds=0, refused_builds=0, rays=0, obj_files=0, obj_refused=0, special_files=0,
-                  renders=0, cancelled_renders=0)
+                  renders=0, cancelled_renders=0, float64_calls=0)
     started = time.monotonic()
     with tempfile.TemporaryDirectory() as folder, np.errstate(all="ignore"):
         round_ = 0
@@ -484,6 +553,7 @@ def main():
             rng = np.random.default_rng([seed, round_])  # each round reproducible on its own
             trace_round(rng, round_, findings, counts)
             threads_round(rng, round_, findings, counts)
+            float64_round(rng, round_, findings, counts)
             cancel_round(rng, round_, findings, counts)
             for _ in range(20):
                 obj_round(rng, round_, findings, counts, folder)
