@@ -1,5 +1,7 @@
 #include "core_arrays.h"
 
+#include "raylab/huge_array.h"
+
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -75,19 +77,6 @@ void check_interval(double tmin, double tmax) {
                                 ")");
 }
 
-Ray make_ray(const float* o, const float* d, size_t index, double tmin, double tmax) {
-  check_ray_row(o, index, "origin");
-  check_ray_row(d, index, "direction");
-  if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f)
-    throw std::invalid_argument("direction of ray " + std::to_string(index) + " has zero length");
-  Ray r;
-  r.origin = {o[0], o[1], o[2]};
-  r.direction = {d[0], d[1], d[2]};
-  r.tmin = float(tmin);
-  r.tmax = float(tmax);
-  return r;
-}
-
 }  // namespace
 
 std::vector<glm::vec3> vertices_from_array(py::handle vertices) {
@@ -161,22 +150,41 @@ BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth
   return s;  // validated where it enters the core: build_structure, the Scene
 }
 
-std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py::handle tmin_value,
-                                  py::handle tmax_value) {
+RayArrays ray_arrays(py::handle origins, py::handle directions, py::handle tmin_value, py::handle tmax_value) {
   const double tmin = number_parameter(tmin_value, "tmin"), tmax = number_parameter(tmax_value, "tmax");
   check_interval(tmin, tmax);
-  FloatRows o = float_rows(origins, "origins", true);
-  FloatRows d = float_rows(directions, "directions", true);
+  RayArrays a{float_rows(origins, "origins", true), float_rows(directions, "directions", true), {}};
+  const FloatRows &o = a.origins, &d = a.directions;
   const size_t no = o.ndim() == 2 ? size_t(o.shape(0)) : 1;
   const size_t nd = d.ndim() == 2 ? size_t(d.shape(0)) : 1;
-  // A (3,) row is shared by every ray: stride 0.
-  const size_t so = o.ndim() == 2 ? 3 : 0, sd = d.ndim() == 2 ? 3 : 0;
   if (o.ndim() == 2 && d.ndim() == 2 && no != nd)
     throw std::invalid_argument("origins and directions differ in length: " + std::to_string(no) + " and " +
                                 std::to_string(nd));
-  const size_t n = o.ndim() == 2 ? no : nd;
-  std::vector<Ray> rays(n);
-  for (size_t i = 0; i < n; ++i) rays[i] = make_ray(o.data() + so * i, d.data() + sd * i, i, tmin, tmax);
+  // A (3,) row is shared by every ray: stride 0.
+  a.rows.origins = o.data();
+  a.rows.origin_stride = o.ndim() == 2 ? 3 : 0;
+  a.rows.directions = d.data();
+  a.rows.direction_stride = d.ndim() == 2 ? 3 : 0;
+  a.rows.tmin = float(tmin);
+  a.rows.tmax = float(tmax);
+  a.rows.count = o.ndim() == 2 ? no : nd;
+  return a;
+}
+
+void refuse_ray(const RayRows& rows, size_t i) {
+  check_ray_row(rows.origin(i), i, "origin");
+  check_ray_row(rows.direction(i), i, "direction");
+  throw std::invalid_argument("direction of ray " + std::to_string(i) + " has zero length");
+}
+
+std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py::handle tmin_value,
+                                  py::handle tmax_value) {
+  const RayArrays a = ray_arrays(origins, directions, tmin_value, tmax_value);
+  std::vector<Ray> rays(a.rows.count);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (!a.rows.usable(i)) refuse_ray(a.rows, i);
+    rays[i] = a.rows.ray(i);
+  }
   return rays;
 }
 
@@ -194,34 +202,39 @@ Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin_val
   FloatRows d = float_rows(direction, "direction", true);
   if (o.ndim() != 1 || d.ndim() != 1)
     throw std::invalid_argument("origin and direction of one ray must have shape (3,)");
-  return make_ray(o.data(), d.data(), 0, tmin, tmax);
+  const RayRows row{o.data(), 0, d.data(), 0, float(tmin), float(tmax), 1};
+  if (!row.usable(0)) refuse_ray(row, 0);
+  return row.ray(0);
+}
+
+py::dict hit_columns(size_t n, bool single_instance, HitColumns& out) {
+  // t, u, v, triangle, instance (4 bytes a row each), then hit (1 byte), each column on a cache line.
+  const auto rounded = [](size_t bytes) { return (bytes + 63) / 64 * 64; };
+  const size_t column = rounded(4 * n);
+  unsigned char* p = static_cast<unsigned char*>(allocate_huge(5 * column + rounded(n)));
+  const py::capsule owner(p, [](void* q) { std::free(q); });
+  out.t = reinterpret_cast<float*>(p);
+  out.u = reinterpret_cast<float*>(p + column);
+  out.v = reinterpret_cast<float*>(p + 2 * column);
+  out.triangle = reinterpret_cast<int32_t*>(p + 3 * column);
+  out.instance = reinterpret_cast<int32_t*>(p + 4 * column);
+  out.hit = reinterpret_cast<bool*>(p + 5 * column);
+  out.single_instance = single_instance;
+  const py::ssize_t rows = py::ssize_t(n);
+  py::dict d;
+  d["t"] = py::array_t<float>(rows, out.t, owner);
+  d["triangle"] = py::array_t<int32_t>(rows, out.triangle, owner);
+  d["u"] = py::array_t<float>(rows, out.u, owner);
+  d["v"] = py::array_t<float>(rows, out.v, owner);
+  d["instance"] = py::array_t<int32_t>(rows, out.instance, owner);
+  d["hit"] = py::array_t<bool>(rows, out.hit, owner);
+  return d;
 }
 
 py::dict hits_to_dict(const std::vector<Hit>& hits, bool single_instance) {
-  const py::ssize_t n = py::ssize_t(hits.size());
-  py::array_t<float> t(n), u(n), v(n);
-  py::array_t<int32_t> triangle(n), instance(n);
-  py::array_t<bool> hit(n);
-  float *pt = t.mutable_data(), *pu = u.mutable_data(), *pv = v.mutable_data();
-  int32_t *ptri = triangle.mutable_data(), *pinst = instance.mutable_data();
-  bool* phit = hit.mutable_data();
-  for (py::ssize_t i = 0; i < n; ++i) {
-    const Hit& h = hits[size_t(i)];
-    const bool valid = h.valid();
-    pt[i] = valid ? h.t : kInfinity;
-    pu[i] = valid ? h.u : 0.0f;
-    pv[i] = valid ? h.v : 0.0f;
-    ptri[i] = valid ? int32_t(h.triangle) : -1;
-    pinst[i] = !valid ? -1 : single_instance ? 0 : int32_t(h.instance);
-    phit[i] = valid;
-  }
-  py::dict d;
-  d["t"] = t;
-  d["triangle"] = triangle;
-  d["u"] = u;
-  d["v"] = v;
-  d["instance"] = instance;
-  d["hit"] = hit;
+  HitColumns out;
+  py::dict d = hit_columns(hits.size(), single_instance, out);
+  write_hits(out, 0, hits);
   return d;
 }
 

@@ -6,6 +6,8 @@
 #include "parameters.h"
 
 #include "raylab/geometry.h"
+#include "raylab/ray_rows.h"
+#include "raylab/scene.h"
 #include "raylab/scene_snapshot.h"
 
 #include <glm/mat4x4.hpp>
@@ -94,7 +96,15 @@ BuildSettings settings_from_arguments(py::handle structure, py::handle max_depth
                                       py::handle memory_budget);
 
 // (N,3) origins and directions; either may be a single (3,) row shared by all rays. tmin and tmax
-// are any Python objects, read as real numbers.
+// are any Python objects, read as real numbers. ray_arrays checks the arrays and the interval and reads
+// the rays in place (float32 C-order arrays are not copied); refuse_ray raises the ValueError of an
+// unusable row (a NaN or infinite coordinate, a zero direction); rays_from_arrays makes every ray.
+struct RayArrays {
+  Contiguous<float> origins, directions;
+  RayRows rows;  // reads the two arrays above
+};
+RayArrays ray_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax);
+[[noreturn]] void refuse_ray(const RayRows& rows, size_t i);
 std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax);
 // One ray from (3,) origin and direction.
 Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin, py::handle tmax);
@@ -102,6 +112,9 @@ Ray ray_from_arrays(py::handle origin, py::handle direction, py::handle tmin, py
 // Closest hits as numpy arrays: t, triangle, u, v, instance, hit. `single_instance` reports
 // instance 0 for every hit (a lone structure has no instance of its own).
 py::dict hits_to_dict(const std::vector<Hit>& hits, bool single_instance);
+// The six arrays of closest hits (t, triangle, u, v, instance, hit), each a contiguous view of one
+// allocation whose columns `out` points at, to be written before Python sees them.
+py::dict hit_columns(size_t n, bool single_instance, HitColumns& out);
 py::dict occlusion_to_dict(const std::vector<uint8_t>& occluded);
 py::dict stats_to_dict(const TraversalStats& stats);
 // Each ray's counters: every kCounters name -> an (N,) uint32 array. A count beyond uint32 raises
@@ -166,16 +179,40 @@ py::dict trace_arrays(py::handle origins, py::handle directions, py::handle tmin
   return d;
 }
 
-// The batch queries of the Python API, for a Structure or a Scene (both have intersect_closest and
-// intersect_any).
+// What the uncounted batch queries trace: a structure, or the scene's current snapshot (held for the call).
+inline const Structure& traced(const Structure& s, SceneSnapshotPtr&) { return s; }
+inline const SceneSnapshot& traced(const Scene& s, SceneSnapshotPtr& held) {
+  held = s.snapshot();
+  return *held;
+}
+
+// The batch queries of the Python API, for a Structure or a Scene. Uncounted (the common call), the
+// rays are read in place and the answers written once into the arrays returned (ray_rows.h); counted,
+// every ray is made first and walks alone with its counters (trace_arrays).
 template <class Target>
 py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
                         py::handle tmax, py::handle count, py::handle per_ray, py::handle threads) {
-  return trace_arrays<Hit>(
-      origins, directions, tmin, tmax, count, per_ray, threads,
-      [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats, int n_threads,
-          std::span<TraversalStats> own) { intersect_closest(target, rays, hits, stats, n_threads, own); },
-      [](const std::vector<Hit>& hits) { return hits_to_dict(hits, std::is_same_v<Target, Structure>); });
+  if (bool_parameter(count, "count") || bool_parameter(per_ray, "per_ray"))
+    return trace_arrays<Hit>(
+        origins, directions, tmin, tmax, count, per_ray, threads,
+        [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats, int n_threads,
+            std::span<TraversalStats> own) { intersect_closest(target, rays, hits, stats, n_threads, own); },
+        [](const std::vector<Hit>& hits) { return hits_to_dict(hits, std::is_same_v<Target, Structure>); });
+  const RayArrays rays = ray_arrays(origins, directions, tmin, tmax);
+  const int n_threads = threads_parameter(threads);
+  HitColumns out;
+  py::dict d = hit_columns(rays.rows.count, std::is_same_v<Target, Structure>, out);
+  SceneSnapshotPtr held;
+  const auto& what = traced(target, held);
+  size_t refused;
+  {
+    py::gil_scoped_release release;
+    refused = closest_rows(what, rays.rows, out, n_threads);
+  }
+  if (refused != rays.rows.count) refuse_ray(rays.rows, refused);
+  d["stats"] = py::none();
+  d["per_ray"] = py::none();
+  return d;
 }
 
 // Closest hits with each ray's status: `trace(rays, hits, statuses)` is a structure's or a scene's.
@@ -196,11 +233,29 @@ py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmi
 template <class Target>
 py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
                        py::handle tmax, py::handle count, py::handle per_ray, py::handle threads) {
-  return trace_arrays<uint8_t>(
-      origins, directions, tmin, tmax, count, per_ray, threads,
-      [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats, int n_threads,
-          std::span<TraversalStats> own) { intersect_any(target, rays, occluded, stats, n_threads, own); },
-      occlusion_to_dict);
+  if (bool_parameter(count, "count") || bool_parameter(per_ray, "per_ray"))
+    return trace_arrays<uint8_t>(
+        origins, directions, tmin, tmax, count, per_ray, threads,
+        [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats, int n_threads,
+            std::span<TraversalStats> own) { intersect_any(target, rays, occluded, stats, n_threads, own); },
+        occlusion_to_dict);
+  const RayArrays rays = ray_arrays(origins, directions, tmin, tmax);
+  const int n_threads = threads_parameter(threads);
+  py::array_t<bool> hit(py::ssize_t(rays.rows.count));
+  bool* occluded = hit.mutable_data();
+  SceneSnapshotPtr held;
+  const auto& what = traced(target, held);
+  size_t refused;
+  {
+    py::gil_scoped_release release;
+    refused = any_rows(what, rays.rows, occluded, n_threads);
+  }
+  if (refused != rays.rows.count) refuse_ray(rays.rows, refused);
+  py::dict d;
+  d["hit"] = hit;
+  d["stats"] = py::none();
+  d["per_ray"] = py::none();
+  return d;
 }
 
 void bind_scene(py::module_& m);  // core_scene.cpp

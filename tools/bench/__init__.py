@@ -5,6 +5,7 @@ accuracy, and play an animation with the BVH refitted against rebuilt.
     /usr/bin/python3 -m tools.bench [--quick] [--out out/bench] [--build-dir build]   (from the checkout)
     /usr/bin/python3 -m tools.bench --only animation [--quick]    (the refit experiment alone, a minute)
     /usr/bin/python3 -m tools.bench --only builders [--quick]     (the BVH's builders side by side, a minute)
+    /usr/bin/python3 -m tools.bench --only door [--quick]         (the Python API's fixed cost per ray)
 
 Everything is measured in this one run, on this machine, as medians of repetitions; comparisons are
 ratios on the same rays (the machines are shared and noisy: absolute times drift, ratios less).
@@ -37,6 +38,7 @@ FULL = {
     "self_hits": {"scales": [1e-3, 1e-2, 1e-1, 1, 1e1, 1e2, 1e3, 1e4, 1e5], "width": 96, "height": 72},
     "animation": {"mesh": "bunny_hr", "frames": 48, "camera": 256, "random_rays": 50000, "reps": 3},
     "builders": {"meshes": ["goathead", "bunny", "dragon"], "camera": 256, "random_rays": 50000, "reps": 5},
+    "door": {"meshes": ["goathead", "bunny_hr", "dragon"], "rays": 262144, "camera": 512, "reps": 15},
 }
 QUICK = {
     "meshes": [("goathead", "goathead.obj")],
@@ -49,6 +51,7 @@ QUICK = {
     "self_hits": {"scales": [1e-3, 1, 1e5], "width": 24, "height": 18},
     "animation": {"mesh": "bunny_hr", "frames": 24, "camera": 96, "random_rays": 10000, "reps": 5},
     "builders": {"meshes": ["goathead"], "camera": 64, "random_rays": 5000, "reps": 1},
+    "door": {"meshes": ["goathead"], "rays": 4096, "camera": 64, "reps": 3},
 }
 
 

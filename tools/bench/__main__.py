@@ -9,8 +9,8 @@ from pathlib import Path
 
 from . import FULL, QUICK, ROOT, __doc__ as package_doc, log
 from .charts import chart_animation, write_charts
-from .experiments import run_animation, run_builders, run_leaks, run_self_hits, run_thesis
-from .report import animation_markdown, builders_markdown, markdown, publish
+from .experiments import run_animation, run_builders, run_door, run_leaks, run_self_hits, run_thesis
+from .report import animation_markdown, builders_markdown, door_markdown, markdown, publish
 from .run import bench_binary, run_blender, run_native
 
 
@@ -22,9 +22,9 @@ def main():
     parser.add_argument("--no-blender", action="store_true", help="skip Blender's BVHTree")
     parser.add_argument("--replot", action="store_true",
                         help="redraw the charts and the table from <out>/results.json, measuring nothing")
-    parser.add_argument("--only", choices=["animation", "builders"],
+    parser.add_argument("--only", choices=["animation", "builders", "door"],
                         help="run one experiment alone: writes <out>/animation.json, .md and bench_animation.png, "
-                             "or <out>/builders.json and .md")
+                             "or <out>/builders.json and .md, or <out>/door.json and .md")
     parser.add_argument("--publish", action="store_true",
                         help="copy the charts of a full run into the levels that show them (and the README)")
     args = parser.parse_args()
@@ -48,6 +48,15 @@ def main():
         (out / "animation.md").write_text(report)
         print(report)
         log(f"done: {out / 'bench_animation.png'}")
+        return
+    if args.only == "door":
+        out.mkdir(parents=True, exist_ok=True)
+        door = run_door(config)
+        (out / "door.json").write_text(json.dumps(door, indent=1))
+        report = "\n".join(door_markdown(door))
+        (out / "door.md").write_text(report)
+        print(report)
+        log(f"done: {out / 'door.md'}")
         return
     if args.only == "builders":
         out.mkdir(parents=True, exist_ok=True)

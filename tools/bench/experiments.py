@@ -2,6 +2,7 @@
 error against a super-sampled reference, rays leaking out of closed meshes (Möller–Trumbore against
 the watertight test) and false self-hits of shadow rays against scene scale."""
 import math
+import os
 import statistics
 import time
 
@@ -363,3 +364,53 @@ def run_builders(config):
             out.append(row)
         log(f"builders on {name} done")
     return {"rows": out, "camera": cfg["camera"], "random_rays": cfg["random_rays"], "reps": cfg["reps"]}
+
+
+# ---------------------------------------------------------------- the door: what the Python API adds
+
+def run_door(config):
+    """The fixed cost per ray of the Python API's batch queries, where users meet them: numpy arrays in,
+    numpy arrays out. Rays that all miss the root box (so no box or triangle test past the root's
+    children), on one core (this process pinned to its first allowed core), through Structure and Scene
+    intersect and occluded, interleaved rounds, median ns per ray. Beside them the camera rays framing
+    each mesh through the same calls (Mrays/s), whose difference from the C++ core is this door."""
+    from raylab import rays
+
+    cfg = config["door"]
+    pinned = sorted(os.sched_getaffinity(0))[:1] if hasattr(os, "sched_getaffinity") else None
+    if pinned:
+        saved = os.sched_getaffinity(0)
+        os.sched_setaffinity(0, pinned)
+    try:
+        out = []
+        for name in cfg["meshes"]:
+            V, T = raylab.load_mesh(MESH_DIR / f"{name}.obj")
+            structure = raylab.build(V, T)
+            scene = raylab.Scene()
+            scene.add_instance(scene.add_mesh(V, T), np.eye(4))
+            scene.commit()
+            n = cfg["rays"]
+            lo, hi = V.min(axis=0), V.max(axis=0)
+            outside = np.tile((hi + (hi - lo)).astype(np.float32), (n, 1))  # beyond the box, looking away
+            away = np.tile(np.float32([0, 0, 1]), (n, 1))
+            camera = rays.camera_rays(V, cfg["camera"])
+            calls = {f"{target} {query} {kind}": (getattr(obj, query), arrays)
+                     for target, obj in (("Structure", structure), ("Scene", scene))
+                     for query in ("intersect", "occluded")
+                     for kind, arrays in (("missing the root", (outside, away)), ("camera", camera))}
+            seconds = {key: [] for key in calls}
+            for _ in range(cfg["reps"]):  # interleaved: the machine's drift falls on every call alike
+                for key, (call, (origins, directions)) in calls.items():
+                    start = time.perf_counter()
+                    call(origins, directions, threads=1)
+                    seconds[key].append(time.perf_counter() - start)
+            row = dict(mesh=name, triangles=len(T), rays_missing=n, camera_rays=len(camera[0]))
+            for key, (_, (origins, _)) in calls.items():
+                median = statistics.median(seconds[key])
+                row[key] = 1e9 * median / len(origins) if "missing" in key else len(origins) / median / 1e6
+            out.append(row)
+            log(f"door on {name} done")
+    finally:
+        if pinned:
+            os.sched_setaffinity(0, saved)
+    return {"rows": out, "reps": cfg["reps"], "pinned_core": pinned[0] if pinned else None}

@@ -83,6 +83,23 @@ def builders_markdown(builders):
     return lines + [""]
 
 
+def door_markdown(door):
+    """The Python API's fixed cost per ray and its camera rays: one row per mesh."""
+    targets = [(t, q) for t in ("Structure", "Scene") for q in ("intersect", "occluded")]
+    lines = ["## The door: what `import raylab` adds per ray", "",
+             f"One core (pinned: {door['pinned_core']}), {door['reps']} interleaved rounds, medians. Fixed cost: rays "
+             "that all miss the root box, ns per ray (numpy in, numpy out, threads=1). Camera: the rays framing "
+             "the mesh, Mrays/s through the same call.", "",
+             "| mesh | " + " | ".join(f"{t}.{q} ns/ray" for t, q in targets) + " | "
+             + " | ".join(f"{t}.{q} camera Mrays/s" for t, q in targets) + " |",
+             "|---|" + "---|" * (2 * len(targets))]
+    for r in door["rows"]:
+        fixed = " | ".join(f"{r[f'{t} {q} missing the root']:.1f}" for t, q in targets)
+        camera = " | ".join(f"{r[f'{t} {q} camera']:.2f}" for t, q in targets)
+        lines.append(f"| {r['mesh']} ({r['triangles']:,}) | {fixed} | {camera} |")
+    return lines + [""]
+
+
 def summary_lines(results):
     """The BVH against Embree (medium) per mesh and thread count, from the ratios add_ratios made: the
     table the README quotes."""
