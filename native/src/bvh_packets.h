@@ -21,7 +21,9 @@
 
 #include "bvh.h"
 
+#include <cstddef>
 #include <cstring>
+#include <limits>
 #include <new>
 
 namespace raylab {
@@ -163,6 +165,100 @@ inline auto lane_record(TraversalStats* lanes, int r) {
   else return NoRecord{};
 }
 
+// Lane r of the packet: ray r's box test constants, as its own walk makes them (BoxRay, FastBoxRay).
+template <bool kFast>
+[[gnu::always_inline]] inline void fill_lane(PacketLanes& lanes, int r, const BoxRay& box_ray) {
+  if constexpr (kFast) {
+    const FastBoxRay f(box_ray);
+    for (int a = 0; a < 3; ++a) {
+      lanes.a[a][r] = f.rdir[a];
+      lanes.b[a][r] = f.org_rdir[a];
+    }
+    lanes.pad[r] = 0.0f;
+    lanes.tmin[r] = f.tmin;
+  } else {
+    for (int a = 0; a < 3; ++a) {
+      lanes.a[a][r] = box_ray.origin[a];
+      lanes.b[a][r] = box_ray.inv_dir[a];
+    }
+    lanes.pad[r] = box_ray.pad;
+    lanes.tmin[r] = box_ray.tmin;
+  }
+}
+
+// The eight lanes at once: the rays transposed into one register per field, then each step of
+// effective_direction, BoxRay and FastBoxRay on all lanes (the same operations on the same operands,
+// so each lane holds the bits fill_lane gives it; tests/native/test_bvh_packets.cpp compares them).
+// Unused lanes repeat ray 0, masked out.
+template <bool kFast>
+RAYLAB_AVX2 inline void fill_lanes8(const Ray* rays, int n, const Bounds& root, PacketLanes& lanes,
+                                    glm::vec3* direction) {
+  static_assert(sizeof(Ray) == 32 && offsetof(Ray, tmin) == 12 && offsetof(Ray, direction) == 16 &&
+                offsetof(Ray, tmax) == 28);
+  __m256 row[8];  // ray r: origin, tmin, direction, tmax
+  for (int r = 0; r < 8; ++r) row[r] = _mm256_loadu_ps(reinterpret_cast<const float*>(&rays[r < n ? r : 0]));
+  // An 8x8 transpose: col[f] holds field f of every ray.
+  __m256 t[8], u[8], col[8];
+  for (int k = 0; k < 4; ++k) {
+    t[2 * k] = _mm256_unpacklo_ps(row[2 * k], row[2 * k + 1]);
+    t[2 * k + 1] = _mm256_unpackhi_ps(row[2 * k], row[2 * k + 1]);
+  }
+  for (int k = 0; k < 2; ++k)
+    for (int h = 0; h < 2; ++h) {
+      u[4 * k + 2 * h] = _mm256_shuffle_ps(t[4 * k + h], t[4 * k + 2 + h], _MM_SHUFFLE(1, 0, 1, 0));
+      u[4 * k + 2 * h + 1] = _mm256_shuffle_ps(t[4 * k + h], t[4 * k + 2 + h], _MM_SHUFFLE(3, 2, 3, 2));
+    }
+  for (int f = 0; f < 4; ++f) {
+    col[f] = _mm256_permute2f128_ps(u[f], u[4 + f], 0x20);
+    col[4 + f] = _mm256_permute2f128_ps(u[f], u[4 + f], 0x31);
+  }
+  const __m256 o[3] = {col[0], col[1], col[2]}, tmin = col[3];
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  // effective_direction: a component below 2^-40 of the largest, or denormal, becomes +0.
+  const __m256 abs_d[3] = {_mm256_andnot_ps(sign, col[4]), _mm256_andnot_ps(sign, col[5]),
+                           _mm256_andnot_ps(sign, col[6])};
+  const __m256 largest = _mm256_max_ps(_mm256_max_ps(abs_d[2], abs_d[1]), abs_d[0]);
+  const __m256 keep = _mm256_mul_ps(_mm256_set1_ps(0x1p-40f), largest);
+  const __m256 normal = _mm256_set1_ps(std::numeric_limits<float>::min());
+  __m256 d[3];
+  for (int a = 0; a < 3; ++a) {
+    const __m256 drop =
+        _mm256_or_ps(_mm256_cmp_ps(abs_d[a], keep, _CMP_LT_OQ), _mm256_cmp_ps(abs_d[a], normal, _CMP_LT_OQ));
+    d[a] = _mm256_andnot_ps(drop, col[4 + a]);
+  }
+  alignas(32) float dx[8], dy[8], dz[8];
+  _mm256_store_ps(dx, d[0]);
+  _mm256_store_ps(dy, d[1]);
+  _mm256_store_ps(dz, d[2]);
+  for (int r = 0; r < 8; ++r) direction[r] = {dx[r], dy[r], dz[r]};
+  // BoxRay: the reciprocal direction and the pad, kBoxPadScale times the largest distance along an
+  // axis from the origin to the root box.
+  const __m256 one = _mm256_set1_ps(1.0f);
+  const __m256 inv[3] = {_mm256_div_ps(one, d[0]), _mm256_div_ps(one, d[1]), _mm256_div_ps(one, d[2])};
+  __m256 far[3];
+  for (int a = 0; a < 3; ++a) {
+    const __m256 lo = _mm256_andnot_ps(sign, _mm256_sub_ps(_mm256_set1_ps(root.lo[a]), o[a]));
+    const __m256 hi = _mm256_andnot_ps(sign, _mm256_sub_ps(_mm256_set1_ps(root.hi[a]), o[a]));
+    far[a] = _mm256_max_ps(hi, lo);
+  }
+  const __m256 pad =
+      root.empty() ? _mm256_setzero_ps()
+                   : _mm256_mul_ps(_mm256_set1_ps(kBoxPadScale), _mm256_max_ps(far[2], _mm256_max_ps(far[1], far[0])));
+  for (int a = 0; a < 3; ++a) {
+    if constexpr (kFast) {  // FastBoxRay: a zero component's infinite reciprocal becomes 2^60
+      const __m256 infinite = _mm256_cmp_ps(_mm256_andnot_ps(sign, inv[a]), _mm256_set1_ps(kInfinity), _CMP_EQ_OQ);
+      const __m256 rdir = _mm256_blendv_ps(inv[a], _mm256_set1_ps(kFastLargeReciprocal), infinite);
+      _mm256_store_ps(lanes.a[a], rdir);
+      _mm256_store_ps(lanes.b[a], _mm256_mul_ps(o[a], rdir));
+    } else {
+      _mm256_store_ps(lanes.a[a], o[a]);
+      _mm256_store_ps(lanes.b[a], inv[a]);
+    }
+  }
+  _mm256_store_ps(lanes.pad, kFast ? _mm256_setzero_ps() : pad);
+  _mm256_store_ps(lanes.tmin, tmin);
+}
+
 // Traces rays[0..n) (1 <= n <= kPacketSize) and writes out[r] (found / occluded) and, closest, hits[r]
 // where found. Returns the rays that left the packet (kSameOrder) and finished alone.
 // Counted (kCount), every ray records what its recorded single walk records: its query, the root box
@@ -202,26 +298,17 @@ template <class Width, bool kClosest, bool kSameOrder, bool kCount>
   e.ref = 0;
   e.count = 0;
   e.rays = all;
-  for (int r = 0; r < K; ++r) {
-    const Ray& ray = rays[r < n ? r : 0];  // unused lanes repeat ray 0, masked out
-    direction[r] = effective_direction(ray.direction);
-    const BoxRay box_ray(ray, direction[r], root_bounds_);
-    if constexpr (kFast) {
-      const FastBoxRay f(box_ray);
-      for (int a = 0; a < 3; ++a) {
-        lanes.a[a][r] = f.rdir[a];
-        lanes.b[a][r] = f.org_rdir[a];
-      }
-      lanes.pad[r] = 0.0f;
-      lanes.tmin[r] = f.tmin;
-    } else {
-      for (int a = 0; a < 3; ++a) {
-        lanes.a[a][r] = box_ray.origin[a];
-        lanes.b[a][r] = box_ray.inv_dir[a];
-      }
-      lanes.pad[r] = box_ray.pad;
-      lanes.tmin[r] = box_ray.tmin;
+  if constexpr (Node::kWidth == 8) {
+    fill_lanes8<kFast>(rays, n, root_bounds_, lanes, direction);
+  } else {
+    for (int r = 0; r < K; ++r) {
+      const Ray& ray = rays[r < n ? r : 0];  // unused lanes repeat ray 0, masked out
+      direction[r] = effective_direction(ray.direction);
+      fill_lane<kFast>(lanes, r, BoxRay(ray, direction[r], root_bounds_));
     }
+  }
+  for (int r = 0; r < K; ++r) {
+    const Ray& ray = rays[r < n ? r : 0];
     best[r] = initial_hit(ray);
     limit[r] = ray.tmax;
     e.t_entry[r] = ray.tmin;

@@ -4,18 +4,10 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cmath>
 #include <new>
 #include <span>
 
 namespace raylab {
-
-bool RayRows::usable(size_t i) const {
-  const float *o = origin(i), *d = direction(i);
-  const bool finite = std::isfinite(o[0]) && std::isfinite(o[1]) && std::isfinite(o[2]) && std::isfinite(d[0]) &&
-                      std::isfinite(d[1]) && std::isfinite(d[2]);
-  return finite && (d[0] != 0.0f || d[1] != 0.0f || d[2] != 0.0f);
-}
 
 namespace {
 

@@ -4,7 +4,7 @@
 // length; and coherent batches really take the packet walk.
 #include "support.h"
 
-#include "../../native/src/bvh.h"
+#include "../../native/src/bvh_packets.h"
 
 #include <cstring>
 
@@ -333,6 +333,43 @@ TEST(BvhPackets, CountedPacketsCountEachRayAsItsOwnWalk) {
       std::vector<TraversalStats> batch(rays.size());
       s.closest_batch_counted(rays, hits, batch);
       EXPECT_EQ(std::memcmp(batch.data(), closest_counts.data(), batch.size() * sizeof(TraversalStats)), 0) << what;
+    }
+  }
+}
+
+// The eight lanes made at once (fill_lanes8) hold the bits each ray's own walk makes (fill_lane from
+// its BoxRay): hostile rays whose components are tiny, zero, -0, denormal or huge, far from the root.
+TEST(BvhPackets, LanesMadeTogetherHoldEachRaysOwnConstants) {
+  if (!cpu_has_avx2()) GTEST_SKIP() << "no AVX2: the 8-lane setup is not run here";
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  const float odd[] = {0.0f, -0.0f, 1e-45f, -1e-39f, 1e-30f, 3e-13f, 1e30f, -2.5f};
+  const Bounds root{{-1.0f, -2.0f, -0.5f}, {3.0f, 1.0f, 0.25f}};
+  for (int round = 0; round < 2000; ++round) {
+    Ray rays[8];
+    const int n = 1 + round % 8;
+    for (Ray& r : rays) {
+      for (int a = 0; a < 3; ++a) {
+        r.origin[a] = unit(rng) * std::pow(10.0f, float(round % 7) - 2.0f);
+        r.direction[a] = (rng() % 3 == 0) ? odd[rng() % 8] : unit(rng);
+      }
+      if (r.direction == glm::vec3(0.0f)) r.direction.z = 1.0f;
+      r.tmin = std::abs(unit(rng));
+      r.tmax = r.tmin + 10.0f;
+    }
+    for (const bool fast : {false, true}) {
+      PacketLanes together, alone;
+      glm::vec3 directions[8];
+      if (fast) fill_lanes8<true>(rays, n, root, together, directions);
+      else fill_lanes8<false>(rays, n, root, together, directions);
+      for (int r = 0; r < 8; ++r) {
+        const Ray& ray = rays[r < n ? r : 0];
+        const glm::vec3 d = effective_direction(ray.direction);
+        if (fast) fill_lane<true>(alone, r, BoxRay(ray, d, root));
+        else fill_lane<false>(alone, r, BoxRay(ray, d, root));
+        ASSERT_EQ(std::memcmp(&directions[r], &d, sizeof d), 0) << "round " << round << " lane " << r;
+      }
+      ASSERT_EQ(std::memcmp(&together, &alone, sizeof together), 0) << "round " << round << (fast ? " fast" : " exact");
     }
   }
 }

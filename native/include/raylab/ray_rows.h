@@ -25,8 +25,13 @@ struct RayRows {
 
   const float* origin(size_t i) const { return origins + origin_stride * i; }
   const float* direction(size_t i) const { return directions + direction_stride * i; }
-  // What a query accepts: finite coordinates and a direction that is not zero.
-  bool usable(size_t i) const;
+  // What a query accepts: finite coordinates and a direction that is not zero. x * 0 is 0 for a
+  // finite x and NaN for an infinite or NaN one: one comparison for the six, no branch per value.
+  bool usable(size_t i) const {
+    const float *o = origin(i), *d = direction(i);
+    const float zeros = (o[0] * 0.0f + o[1] * 0.0f) + (o[2] * 0.0f + d[0] * 0.0f) + (d[1] * 0.0f + d[2] * 0.0f);
+    return zeros == 0.0f && (d[0] != 0.0f || d[1] != 0.0f || d[2] != 0.0f);
+  }
   Ray ray(size_t i) const {
     const float *o = origin(i), *d = direction(i);
     Ray r;
