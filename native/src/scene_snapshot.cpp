@@ -82,7 +82,9 @@ struct SceneSnapshot::TopWalk {
   bool in_leaf = false;
   uint32_t linear_next = 0;  // without a top level: the next instance
   int size = 0;
-  Entry stack[Bvh::kStackSize];
+  // The top level is a binary tree (kMaxBinaryDepth deep at most): a node pushes one child more than it
+  // pops.
+  Entry stack[kMaxBinaryDepth + 2];
 };
 
 template <class Recorder>
