@@ -20,6 +20,7 @@
 #include <span>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace raylab::python {
@@ -186,35 +187,6 @@ inline const SceneSnapshot& traced(const Scene& s, SceneSnapshotPtr& held) {
   return *held;
 }
 
-// The batch queries of the Python API, for a Structure or a Scene. Uncounted (the common call), the
-// rays are read in place and the answers written once into the arrays returned (ray_rows.h); counted,
-// every ray is made first and walks alone with its counters (trace_arrays).
-template <class Target>
-py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
-                        py::handle tmax, py::handle count, py::handle per_ray, py::handle threads) {
-  if (bool_parameter(count, "count") || bool_parameter(per_ray, "per_ray"))
-    return trace_arrays<Hit>(
-        origins, directions, tmin, tmax, count, per_ray, threads,
-        [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats, int n_threads,
-            std::span<TraversalStats> own) { intersect_closest(target, rays, hits, stats, n_threads, own); },
-        [](const std::vector<Hit>& hits) { return hits_to_dict(hits, std::is_same_v<Target, Structure>); });
-  const RayArrays rays = ray_arrays(origins, directions, tmin, tmax);
-  const int n_threads = threads_parameter(threads);
-  HitColumns out;
-  py::dict d = hit_columns(rays.rows.count, std::is_same_v<Target, Structure>, out);
-  SceneSnapshotPtr held;
-  const auto& what = traced(target, held);
-  size_t refused;
-  {
-    py::gil_scoped_release release;
-    refused = closest_rows(what, rays.rows, out, n_threads);
-  }
-  if (refused != rays.rows.count) refuse_ray(rays.rows, refused);
-  d["stats"] = py::none();
-  d["per_ray"] = py::none();
-  return d;
-}
-
 // Closest hits with each ray's status: `trace(rays, hits, statuses)` is a structure's or a scene's.
 template <class Trace>
 py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmin, py::handle tmax, py::handle threads,
@@ -230,6 +202,53 @@ py::dict status_arrays(py::handle origins, py::handle directions, py::handle tmi
       [&](const std::vector<Hit>& hits) { return statuses_to_dict(hits, statuses, single_instance); });
 }
 
+// An uncounted batch query of the Python API: the rays read in place (ray_rows.h), `columns(n)` makes
+// the arrays returned (a dict) and where the answers go, `trace(target, rows, where, threads)` writes
+// them with the GIL released; an unusable ray raises its ValueError after.
+template <class Target, class Columns, class Trace>
+py::dict trace_in_place(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
+                        py::handle tmax, py::handle threads, Columns columns, Trace trace) {
+  const RayArrays rays = ray_arrays(origins, directions, tmin, tmax);
+  const int n_threads = threads_parameter(threads);
+  auto [d, where] = columns(rays.rows.count);
+  SceneSnapshotPtr held;
+  const auto& what = traced(target, held);
+  size_t refused;
+  {
+    py::gil_scoped_release release;
+    refused = trace(what, rays.rows, where, n_threads);
+  }
+  if (refused != rays.rows.count) refuse_ray(rays.rows, refused);
+  d["stats"] = py::none();
+  d["per_ray"] = py::none();
+  return d;
+}
+
+// The batch queries of the Python API, for a Structure or a Scene. Uncounted (the common call), the
+// rays are read in place and the answers written once into the arrays returned (trace_in_place);
+// counted, every ray is made first and walks alone with its counters (trace_arrays).
+template <class Target>
+py::dict intersect_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
+                        py::handle tmax, py::handle count, py::handle per_ray, py::handle threads) {
+  constexpr bool single_instance = std::is_same_v<Target, Structure>;
+  if (bool_parameter(count, "count") || bool_parameter(per_ray, "per_ray"))
+    return trace_arrays<Hit>(
+        origins, directions, tmin, tmax, count, per_ray, threads,
+        [&](const std::vector<Ray>& rays, std::vector<Hit>& hits, TraversalStats* stats, int n_threads,
+            std::span<TraversalStats> own) { intersect_closest(target, rays, hits, stats, n_threads, own); },
+        [](const std::vector<Hit>& hits) { return hits_to_dict(hits, single_instance); });
+  return trace_in_place(
+      target, origins, directions, tmin, tmax, threads,
+      [](size_t n) {
+        HitColumns out;
+        py::dict d = hit_columns(n, single_instance, out);
+        return std::pair(d, out);
+      },
+      [](const auto& what, const RayRows& rows, const HitColumns& out, int n_threads) {
+        return closest_rows(what, rows, out, n_threads);
+      });
+}
+
 template <class Target>
 py::dict occluded_rays(const Target& target, py::handle origins, py::handle directions, py::handle tmin,
                        py::handle tmax, py::handle count, py::handle per_ray, py::handle threads) {
@@ -239,23 +258,17 @@ py::dict occluded_rays(const Target& target, py::handle origins, py::handle dire
         [&](const std::vector<Ray>& rays, std::vector<uint8_t>& occluded, TraversalStats* stats, int n_threads,
             std::span<TraversalStats> own) { intersect_any(target, rays, occluded, stats, n_threads, own); },
         occlusion_to_dict);
-  const RayArrays rays = ray_arrays(origins, directions, tmin, tmax);
-  const int n_threads = threads_parameter(threads);
-  py::array_t<bool> hit(py::ssize_t(rays.rows.count));
-  bool* occluded = hit.mutable_data();
-  SceneSnapshotPtr held;
-  const auto& what = traced(target, held);
-  size_t refused;
-  {
-    py::gil_scoped_release release;
-    refused = any_rows(what, rays.rows, occluded, n_threads);
-  }
-  if (refused != rays.rows.count) refuse_ray(rays.rows, refused);
-  py::dict d;
-  d["hit"] = hit;
-  d["stats"] = py::none();
-  d["per_ray"] = py::none();
-  return d;
+  return trace_in_place(
+      target, origins, directions, tmin, tmax, threads,
+      [](size_t n) {
+        py::array_t<bool> hit{py::ssize_t(n)};
+        py::dict d;
+        d["hit"] = hit;
+        return std::pair(d, hit.mutable_data());
+      },
+      [](const auto& what, const RayRows& rows, bool* occluded, int n_threads) {
+        return any_rows(what, rows, occluded, n_threads);
+      });
 }
 
 void bind_scene(py::module_& m);  // core_scene.cpp

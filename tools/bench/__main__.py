@@ -14,6 +14,11 @@ from .report import animation_markdown, builders_markdown, door_markdown, markdo
 from .run import bench_binary, run_blender, run_native
 
 
+# The experiments --only runs alone: how each is measured and how it is reported.
+ONLY = {"animation": (run_animation, animation_markdown), "builders": (run_builders, builders_markdown),
+        "door": (run_door, door_markdown)}
+
+
 def main():
     parser = argparse.ArgumentParser(prog="./raylab bench", description=package_doc.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a tiny configuration, well under a minute")
@@ -22,7 +27,7 @@ def main():
     parser.add_argument("--no-blender", action="store_true", help="skip Blender's BVHTree")
     parser.add_argument("--replot", action="store_true",
                         help="redraw the charts and the table from <out>/results.json, measuring nothing")
-    parser.add_argument("--only", choices=["animation", "builders", "door"],
+    parser.add_argument("--only", choices=sorted(ONLY),
                         help="run one experiment alone: writes <out>/animation.json, .md and bench_animation.png, "
                              "or <out>/builders.json and .md, or <out>/door.json and .md")
     parser.add_argument("--publish", action="store_true",
@@ -39,33 +44,17 @@ def main():
             publish(results, out)
         return
     config = QUICK if args.quick else FULL
-    if args.only == "animation":
+    if args.only:
+        run, to_markdown = ONLY[args.only]
         out.mkdir(parents=True, exist_ok=True)
-        animation = run_animation(config)
-        chart_animation({"animation": animation}, out / "bench_animation.png")
-        (out / "animation.json").write_text(json.dumps(animation, indent=1))
-        report = "\n".join(animation_markdown(animation))
-        (out / "animation.md").write_text(report)
+        result = run(config)
+        if args.only == "animation":
+            chart_animation({"animation": result}, out / "bench_animation.png")
+        (out / f"{args.only}.json").write_text(json.dumps(result, indent=1))
+        report = "\n".join(to_markdown(result))
+        (out / f"{args.only}.md").write_text(report)
         print(report)
-        log(f"done: {out / 'bench_animation.png'}")
-        return
-    if args.only == "door":
-        out.mkdir(parents=True, exist_ok=True)
-        door = run_door(config)
-        (out / "door.json").write_text(json.dumps(door, indent=1))
-        report = "\n".join(door_markdown(door))
-        (out / "door.md").write_text(report)
-        print(report)
-        log(f"done: {out / 'door.md'}")
-        return
-    if args.only == "builders":
-        out.mkdir(parents=True, exist_ok=True)
-        builders = run_builders(config)
-        (out / "builders.json").write_text(json.dumps(builders, indent=1))
-        report = "\n".join(builders_markdown(builders))
-        (out / "builders.md").write_text(report)
-        print(report)
-        log(f"done: {out / 'builders.md'}")
+        log(f"done: {out / (args.only + '.md')}")
         return
     data = out / "data"
     data.mkdir(parents=True, exist_ok=True)
