@@ -57,7 +57,7 @@ def _store_last_render(scene_name, record):
 #     not interrupted), asks the main thread to park and waits until it does; the main thread's timer
 #     (_flush_last_renders) then waits, letting go of the interpreter, until render() has begun (or the
 #     render ended, or _PARK_SECONDS passed). Blender calls update_render_passes() and render() meanwhile.
-#  2. Inside render() the interval is Python's own again: the engine's export and numpy never hold the
+#  2. render() puts Python's own interval back as it begins: the engine's export and numpy never hold the
 #     main loop for long (with 10 s throughout, the main thread waited up to 10 s for the interpreter
 #     whenever the job thread took it back first: F12 on the AABB 2 level held the main loop 13.8 s).
 #  3. When render() ends, it raises the interval and parks the main thread again before it returns, for
@@ -74,7 +74,6 @@ _saved_switch_interval = []  # the interval to restore, while a render holds the
 _park_requested = threading.Event()  # the job thread is about to enter or leave the engine
 _main_parked = threading.Event()  # the main thread is parked in the timer, outside any draw
 _park_over = threading.Event()  # render() has begun, or the render's engine calls are over
-_inside_render = threading.Event()  # the job thread runs render(): the guard's interval is not needed
 
 
 def _on_job_thread():
@@ -106,8 +105,8 @@ def _park_main_thread():
 def _flush_last_renders():
     _park_main_thread()
     with _guard_lock:
-        if _saved_switch_interval and (_inside_render.is_set() or not bpy.app.is_job_running('RENDER')):
-            _release_render_guard()  # inside render(), or the job is over: its thread calls no more Python
+        if _saved_switch_interval and not bpy.app.is_job_running('RENDER'):
+            _release_render_guard()  # the job is over: its thread calls no more Python
     while _pending_records:
         name, record = _pending_records.popitem()
         scene = bpy.data.scenes.get(name)
@@ -128,7 +127,6 @@ def _guard_render_start(scene, *_args):
     """render_pre: takes the guard and parks the main thread before Blender calls the engine (step 1)."""
     if not _on_job_thread() or scene is None or scene.render.engine != RaylabRenderEngine.bl_idname:
         return
-    _inside_render.clear()
     _take_guard()
 
 
@@ -136,19 +134,18 @@ def _guard_render_start(scene, *_args):
 def _guard_render_end(scene, *_args):
     """render_post and render_cancel: the engine's calls are over, the parked main thread may go on."""
     if _on_job_thread():
-        _inside_render.clear()
         _park_over.set()
 
 
 def _entering_render():
     if _on_job_thread():
-        _inside_render.set()
+        with _guard_lock:  # here, not by the main thread: it needs the interpreter this thread now holds
+            _release_render_guard()
         _park_over.set()  # the main thread was parked while Blender called render(): it may go on
 
 
 def _leaving_render():
     if _on_job_thread():
-        _inside_render.clear()
         _take_guard()  # step 3: render() returns while the main thread is parked
 
 
