@@ -239,6 +239,31 @@ def _drop_name_suffixes(scene):
                 scene[STATE_KEY]["mesh_object"] = base
 
 
+def _lay_out_top_bar_again(window):
+    """Blender 3.4 draws a window's top bar (File, Edit, Render..., the workspace tabs) empty once its scene
+    has a name of 16 or more characters after a render window was opened and closed (with Workbench and no
+    add-on too: a rename is enough), and a level scene's name is that long; it stays empty until the
+    workspace changes (issue 40; tests/gui/test_top_bar_gui.py). So the window goes to another workspace
+    and, one timer tick later, back: Blender lays the top bar out again. The other workspace shows this
+    object mode and no pinned scene, so the round trip changes neither."""
+    if bpy.app.version >= (4, 0, 0) or window.screen is None or window.screen.is_temporary:
+        return
+    workspace = window.workspace
+    other = next((w for w in bpy.data.workspaces if w != workspace and not w.use_pin_scene
+                  and w.object_mode == workspace.object_mode), None)
+    if other is None:
+        return
+    window.workspace = other
+    pointer, name = window.as_pointer(), workspace.name
+
+    def back():
+        for w in bpy.context.window_manager.windows:  # the window, if it is still open
+            if w.as_pointer() == pointer and w.workspace == other and name in bpy.data.workspaces:
+                w.workspace = bpy.data.workspaces[name]
+        return None
+    bpy.app.timers.register(back, first_interval=0.0)
+
+
 def open_level(context, level_id, root=None):
     """Builds the level's scene from scratch and makes it the window's scene; the previous level's
     scene is removed (the user's own scenes are kept). Returns the new scene. Raises LevelError."""
@@ -258,6 +283,7 @@ def open_level(context, level_id, root=None):
             close(window)
         window.scene = scene
         _frame_views(window, level)
+        _lay_out_top_bar_again(window)
     # Every other level scene goes (shown or not: none piles up); the user's scenes, copies included, stay.
     for previous in [s for s in bpy.data.scenes if s != scene and state(s) is not None]:
         _remove_scene(previous)
