@@ -192,7 +192,9 @@ def _remove_scene(scene):
     else. Objects the user added stay where they are: the scene is then kept as theirs, no longer a level."""
     # The token as a Python str: the state is freed with the scene, and reading it after that crashed 5.2.
     token = state(scene).get("token")
-    for obj in [o for o in scene.objects if owned(o, token) and len(o.users_scene) == 1]:
+    leaving = [o for o in scene.objects if owned(o, token) and len(o.users_scene) == 1]
+    holders = _depsgraphs_holding(leaving)
+    for obj in leaving:
         data, materials = obj.data, list(getattr(obj.data, "materials", ()))
         bpy.data.objects.remove(obj)
         if owned(data, token) and data.users == 0 and _data_collection(data) is not None:
@@ -205,12 +207,40 @@ def _remove_scene(scene):
     if users:
         del scene[STATE_KEY]
         scene.name = scene.name + KEPT_SUFFIX
+        _update_depsgraphs(holders)
         return scene
     world = scene.world
     bpy.data.scenes.remove(scene)
     if owned(world, token) and world.users == 0:
         bpy.data.worlds.remove(world)
+    _update_depsgraphs(holders)
     return None
+
+
+# A scene that was shown keeps its depsgraph (one per view layer) when the window shows another, and
+# Blender evaluates it again only when it is shown again: until then it holds its evaluated copies of
+# objects that were deleted meanwhile, their originals freed. Blender's GPU garbage collection (every
+# 60 s, DRW_cache_free_old_batches, from a 3D viewport's draw) walks the depsgraph of every scene and reads
+# each copy's original: Blender 5.2 crashed there (object_orig->runtime->select_id) in CI, in the race
+# level, after the student had left BVH 1 with a cube of their own, its scene kept with the level's
+# objects deleted from it (issue 40; tests/gui/test_level_depsgraphs_gui.py). So the depsgraphs that hold a
+# level object about to be deleted are evaluated again once it is gone, which drops their copies.
+def _depsgraphs_holding(objects):
+    """(scene pointer, view layer name) of every built depsgraph that holds a copy of one of `objects`."""
+    pointers = {o.as_pointer() for o in objects}
+    return [(scene.as_pointer(), view_layer.name) for scene in bpy.data.scenes for view_layer in scene.view_layers
+            if view_layer.depsgraph is not None
+            and any(o.original.as_pointer() in pointers for o in view_layer.depsgraph.objects)]
+
+
+def _update_depsgraphs(holders):
+    """Evaluates those depsgraphs again (their scenes, if still there: a removed scene's went with it)."""
+    scenes = {scene.as_pointer(): scene for scene in bpy.data.scenes}
+    for pointer, name in holders:
+        scene = scenes.get(pointer)
+        view_layer = scene.view_layers.get(name) if scene is not None else None
+        if view_layer is not None and view_layer.depsgraph is not None:
+            view_layer.depsgraph.update()
 
 
 def _data_collection(data):
