@@ -15,11 +15,13 @@ def evaluated(scene):
         return bpy.context.evaluated_depsgraph_get()
 
 
-def stale_copies():
+def stale_copies(scenes):
+    """Per built depsgraph of `scenes` (this test's: another test's hidden scene may hold a stale one, and
+    walking it reads freed objects), the evaluated objects whose original is not a live object."""
     live = {o.as_pointer() for o in bpy.data.objects}
     return {f"{scene.name}/{view_layer.name}": [o.name for o in view_layer.depsgraph.objects
                                                  if o.original.as_pointer() not in live]
-            for scene in bpy.data.scenes for view_layer in scene.view_layers if view_layer.depsgraph is not None}
+            for scene in scenes for view_layer in scene.view_layers if view_layer.depsgraph is not None}
 
 
 def test_a_level_left_with_the_users_object_keeps_no_copy_of_the_deleted_level_objects():
@@ -29,11 +31,11 @@ def test_a_level_left_with_the_users_object_keeps_no_copy_of_the_deleted_level_o
     own = bpy.data.objects.new("my cube", bpy.data.meshes.new("my cube"))
     first.collection.objects.link(own)
     evaluated(first)
-    level_scene.open_level(bpy.context, "aabb_2")
+    second = level_scene.open_level(bpy.context, "aabb_2")
     kept = [s for s in bpy.data.scenes if s.name.endswith(level_scene.KEPT_SUFFIX)]
     try:
         assert len(kept) == 1 and kept[0].view_layers[0].depsgraph is not None
-        held = {name: copies for name, copies in stale_copies().items() if copies}
+        held = {name: copies for name, copies in stale_copies([*kept, second]).items() if copies}
         assert not held, f"depsgraphs hold copies of deleted objects: {held}"
     finally:
         # Blender as the other test files expect it: their scene back, no level scene, nothing of this test's.

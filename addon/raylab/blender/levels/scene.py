@@ -193,7 +193,7 @@ def _remove_scene(scene):
     # The token as a Python str: the state is freed with the scene, and reading it after that crashed 5.2.
     token = state(scene).get("token")
     leaving = [o for o in scene.objects if owned(o, token) and len(o.users_scene) == 1]
-    holders = _depsgraphs_holding(leaving)
+    holders = _depsgraphs_holding(scene)
     for obj in leaving:
         data, materials = obj.data, list(getattr(obj.data, "materials", ()))
         bpy.data.objects.remove(obj)
@@ -221,26 +221,34 @@ def _remove_scene(scene):
 # Blender evaluates it again only when it is shown again: until then it holds its evaluated copies of
 # objects that were deleted meanwhile, their originals freed. Blender's GPU garbage collection (every
 # 60 s, DRW_cache_free_old_batches, from a 3D viewport's draw) walks the depsgraph of every scene and reads
-# each copy's original: Blender 5.2 crashed there (object_orig->runtime->select_id) in CI, in the race
-# level, after the student had left BVH 1 with a cube of their own, its scene kept with the level's
-# objects deleted from it (issue 40; tests/gui/test_level_depsgraphs_gui.py). So the depsgraphs that hold a
-# level object about to be deleted are evaluated again once it is gone, which drops their copies.
-def _depsgraphs_holding(objects):
-    """(scene pointer, view layer name) of every built depsgraph that holds a copy of one of `objects`."""
-    pointers = {o.as_pointer() for o in objects}
-    return [(scene.as_pointer(), view_layer.name) for scene in bpy.data.scenes for view_layer in scene.view_layers
-            if view_layer.depsgraph is not None
-            and any(o.original.as_pointer() in pointers for o in view_layer.depsgraph.objects)]
+# each copy's original: Blender 5.2 crashed there (object_orig->runtime->select_id) in CI during the race
+# level (issue 40). A level scene kept for the user's objects lost the level's objects while its depsgraph
+# held them (seen from a script: tests/blender/test_level_depsgraphs.py). So the depsgraphs that may hold
+# the deleted objects, the scene's own and those of scenes that show it as a background set, are evaluated
+# again once they are gone, which drops their copies. They are not read before: walking a depsgraph that
+# is already stale reads freed objects itself.
+def _depsgraphs_holding(scene):
+    """Pointers of the scenes whose depsgraphs may hold copies of `scene`'s objects: itself, and every
+    scene with it in its chain of background sets."""
+    holders = []
+    for other in bpy.data.scenes:
+        link, seen = other, set()
+        while link is not None and link.as_pointer() not in seen:
+            if link == scene:
+                holders.append(other.as_pointer())
+                break
+            seen.add(link.as_pointer())
+            link = link.background_set
+    return holders
 
 
 def _update_depsgraphs(holders):
-    """Evaluates those depsgraphs again (their scenes, if still there: a removed scene's went with it)."""
-    scenes = {scene.as_pointer(): scene for scene in bpy.data.scenes}
-    for pointer, name in holders:
-        scene = scenes.get(pointer)
-        view_layer = scene.view_layers.get(name) if scene is not None else None
-        if view_layer is not None and view_layer.depsgraph is not None:
-            view_layer.depsgraph.update()
+    """Evaluates again the built depsgraphs of those scenes that are still there."""
+    for scene in bpy.data.scenes:
+        if scene.as_pointer() in holders:
+            for view_layer in scene.view_layers:
+                if view_layer.depsgraph is not None:
+                    view_layer.depsgraph.update()
 
 
 def _data_collection(data):
@@ -276,8 +284,8 @@ def _lay_out_top_bar_again(window):
     workspace changes (issue 40; tests/gui/test_top_bar_gui.py). So the window goes to another workspace
     and, one timer tick later, back: Blender lays the top bar out again. The other workspace shows this
     object mode and no pinned scene, so the round trip changes neither."""
-    if bpy.app.version >= (4, 0, 0) or window.screen is None or window.screen.is_temporary:
-        return
+    if bpy.app.version >= (4, 0, 0) or bpy.app.background or window.screen is None or window.screen.is_temporary:
+        return  # (in the background no timer would bring the workspace back, and nothing is drawn)
     workspace = window.workspace
     other = next((w for w in bpy.data.workspaces if w != workspace and not w.use_pin_scene
                   and w.object_mode == workspace.object_mode), None)
