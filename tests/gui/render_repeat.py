@@ -145,11 +145,20 @@ SLOW_DRAW_MS = float(os.environ.get("RAYLAB_SLOW_DRAW_MS", "0"))
 NOTE_EVENTS = bool(os.environ.get("RAYLAB_NOTE_EVENTS"))
 
 
+# RAYLAB_DRAW_RELEASES=1: the slow draws sleep instead, letting go of the interpreter lock as a draw that
+# reads a file, runs numpy on a large array or calls native code that releases the lock does (any add-on's
+# draw may): F12's job thread then takes the lock in the middle of a draw whatever the switch interval.
+DRAW_RELEASES = bool(os.environ.get("RAYLAB_DRAW_RELEASES"))
+
+
 def slow_draw(self, context):
-    """A header that draws in pure Python for SLOW_DRAW_MS: Python may switch threads inside it."""
+    """A header that draws in pure Python for SLOW_DRAW_MS: Python may switch threads inside it (or, with
+    DRAW_RELEASES, that sleeps for as long: it lets go of the interpreter lock)."""
     if NOTE_EVENTS:
         note(f"draw {type(self).__name__}")
-    end = time.perf_counter() + SLOW_DRAW_MS / 1000.0
+    if DRAW_RELEASES:
+        time.sleep(SLOW_DRAW_MS / 1000.0)
+    end = time.perf_counter() + (0.0 if DRAW_RELEASES else SLOW_DRAW_MS / 1000.0)
     while time.perf_counter() < end:
         pass
     if NOTE_EVENTS:
@@ -206,6 +215,10 @@ def noting(method):
     return wrapper
 
 
+# RAYLAB_SWITCH_INTERVAL=S: Python switches threads after S seconds instead of 5 ms (a tiny S makes the job
+# thread take the lock from a draw whenever it waits for it; render_engine must lengthen it where that hurts).
+if os.environ.get("RAYLAB_SWITCH_INTERVAL"):
+    sys.setswitchinterval(float(os.environ["RAYLAB_SWITCH_INTERVAL"]))
 raylab.register()
 bpy.app.handlers.render_pre.append(note_render_pre)
 bpy.app.handlers.render_post.append(lambda *args: note("render_post"))

@@ -26,23 +26,45 @@ OUT = os.path.join(ROOT, "out", "gui")
 RENDERS = 50
 
 
-def test_fifty_f12_renders_leave_operators_usable():
+def run_renders(renders, name, **env):
+    """render_repeat.py's `renders` F12 renders in a real window with `env`; returns its report."""
     os.makedirs(OUT, exist_ok=True)
     blend = os.path.join(OUT, "render_repeat_scene.blend")
-    report_path = os.path.join(OUT, "render_repeat.json")
+    report_path = os.path.join(OUT, f"{name}.json")
     for path in (blend, report_path):
         if os.path.exists(path):
             os.remove(path)
     gui_util.demo_blend(blend)
     run = gui_util.run_watched(["xvfb-run", "-a", "-s", "-screen 0 1600x900x24", "blender", "--factory-startup", blend,
-                          "--python", os.path.join(HERE, "render_repeat.py"), "--", report_path, str(RENDERS)],
-                         capture_output=True, text=True, timeout=1200, env={**os.environ, "RAYLAB_SLOW_DRAW_MS": "30"})
-    assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:]
+                                "--python", os.path.join(HERE, "render_repeat.py"), "--", report_path, str(renders)],
+                               env={**os.environ, **env})
+    assert os.path.exists(report_path), run.stdout[-3000:] + run.stderr[-3000:] + gui_util.crash_report(run)
     with open(report_path) as file:
-        report = json.load(file)
+        return json.load(file)
+
+
+def test_fifty_f12_renders_leave_operators_usable():
+    report = run_renders(RENDERS, "render_repeat", RAYLAB_SLOW_DRAW_MS="30")
     assert not report["errors"], report["errors"][:3]
     assert report["finished"] and report["renders_finished"] == RENDERS
     # poke() ran operators and a property edit while each render ran (inside raylab's render(), at least
     # once) and after it ended
     assert report["renders_poked_while_rendering"] == RENDERS
     assert report["operator_calls"] >= 2 * RENDERS
+
+
+FORCED_RENDERS = 6
+
+
+def test_f12_entering_the_engine_while_a_draw_has_let_go_of_the_lock_leaves_operators_usable():
+    """Issue 40's lock-up, forced: F12s back to back from a timer while three headers redraw, each letting
+    go of the interpreter lock for 30 ms (a sleep: what a file read, numpy on a large array or a native call
+    does in any add-on's draw), Python switching threads every 0.1 ms. The job thread then took the lock
+    in the middle of a draw whatever the switch interval, and entered the engine there: at the 1st render
+    every operator failed ("can't modify blend data in this state") on main at 1e63193. The engine is now
+    entered and left only while the main thread is parked in a timer (render_engine.py)."""
+    report = run_renders(FORCED_RENDERS, "render_repeat_forced", RAYLAB_SLOW_DRAW_MS="30", RAYLAB_DRAW_RELEASES="1",
+                         RAYLAB_SWITCH_INTERVAL="0.0001")
+    assert not report["errors"], report["errors"][:3]
+    assert report["finished"] and report["renders_finished"] == FORCED_RENDERS
+    assert report["operator_calls"] >= 2 * FORCED_RENDERS  # an operator ran during and after each render

@@ -30,7 +30,7 @@ def render_exported(exported, props, structure=None, super_sampling=None, progre
 
 # F12 renders in a job thread, while the main thread draws panels that read the scene's ID properties:
 # the render's record waits here and a main-thread timer stores it (a render run on the main thread, as
-# bpy.ops.render.render() from a script does, stores it at once).
+# bpy.ops.render.render() from a script does, stores it at once). The job thread never writes an ID.
 _pending_records = {}  # scene name -> record
 
 
@@ -41,58 +41,112 @@ def _store_last_render(scene_name, record):
         _pending_records[scene_name] = record
 
 
+# F12 calls update_render_passes() and render() on a job thread. Blender (3.4 to 5.2) keeps "may Python
+# write blend data" in one global flag, which each call into a Python class method saves, sets and
+# restores, on any thread. If the job thread enters an engine method while the main thread is half-way
+# through a panel's or header's draw (the flag then says "no writes"), it saves "no writes" and puts it
+# back when it returns, after the main thread has restored "writes": from then on every bpy.ops call
+# fails with "can't modify blend data in this state (drawing/rendering)", every ID write (the record's
+# below) with "Writing to ID classes in this context is not allowed", and Blender cannot quit (issues 12
+# and 40). The job thread takes the interpreter in the middle of a draw in two ways: Python hands it over
+# after sys.getswitchinterval() (5 ms), and a draw lets go of it (a file read, numpy on a large array, a
+# native call that releases it: any add-on's draw may; tests/gui/render_repeat.py forces both).
+# So the job thread enters and leaves the engine only while the main thread is parked in a timer, which
+# runs between events, never inside a draw:
+#  1. render_pre (job thread) raises the switch interval to 10 s (a pure-Python draw that starts now is
+#     not interrupted), asks the main thread to park and waits until it does; the main thread's timer
+#     (_flush_last_renders) then waits, letting go of the interpreter, until render() has begun (or the
+#     render ended, or _PARK_SECONDS passed). Blender calls update_render_passes() and render() meanwhile.
+#  2. render() puts Python's own interval back as it begins: the engine's export and numpy never hold the
+#     main loop for long (with 10 s throughout, the main thread waited up to 10 s for the interpreter
+#     whenever the job thread took it back first: F12 on the AABB 2 level held the main loop 13.8 s).
+#  3. When render() ends, it raises the interval and parks the main thread again before it returns, for
+#     what Blender does after it (another view layer's render(), the compositor's update_render_passes());
+#     render_post (job thread) lets the main thread go, and the timer ends the guard once the job is over.
+# Each wait has a limit (a main thread that waits for the render job itself runs no timer), so the guard
+# can delay a render or hold the main loop for _PARK_SECONDS, never hang either.
+_SWITCH_INTERVAL_WHILE_RENDERING = 10.0
+_TIMER_SECONDS = 0.05  # the timer's period: how long the job thread waits for the main thread, on average half
+_MAIN_THREAD_WAIT_SECONDS = 2.0  # the longest the job thread waits for the main thread to park
+_PARK_SECONDS = 0.3  # the longest the main thread stays parked (Blender's own work before render(), after it)
+_guard_lock = threading.Lock()
+_saved_switch_interval = []  # the interval to restore, while a render holds the guard
+_park_requested = threading.Event()  # the job thread is about to enter or leave the engine
+_main_parked = threading.Event()  # the main thread is parked in the timer, outside any draw
+_park_over = threading.Event()  # render() has begun, or the render's engine calls are over
+
+
+def _on_job_thread():
+    return threading.current_thread() is not threading.main_thread()
+
+
+def _take_guard():
+    """On the job thread: the long switch interval, then the main thread parked (or the wait's limit)."""
+    with _guard_lock:
+        if not _saved_switch_interval:
+            _saved_switch_interval.append(sys.getswitchinterval())
+            sys.setswitchinterval(_SWITCH_INTERVAL_WHILE_RENDERING)
+        _park_over.clear()
+        _main_parked.clear()
+        _park_requested.set()
+    _main_parked.wait(_MAIN_THREAD_WAIT_SECONDS)  # lets go of the interpreter meanwhile
+
+
+def _park_main_thread():
+    """On the main thread, in the timer: if the job thread asks, waits (not holding the interpreter) until
+    render() has begun or the render's engine calls are over, for _PARK_SECONDS at most."""
+    if not _park_requested.is_set():
+        return
+    _park_requested.clear()
+    _main_parked.set()
+    _park_over.wait(_PARK_SECONDS)
+
+
 def _flush_last_renders():
-    _main_thread_between_calls.set()  # a timer never runs inside a draw: see _guard_render_start
-    if _saved_switch_interval and not bpy.app.is_job_running('RENDER'):
-        _release_render_guard()  # the render job is over: its thread calls no more Python
+    _park_main_thread()
+    with _guard_lock:
+        if _saved_switch_interval and not bpy.app.is_job_running('RENDER'):
+            _release_render_guard()  # the job is over: its thread calls no more Python
     while _pending_records:
         name, record = _pending_records.popitem()
         scene = bpy.data.scenes.get(name)
-        if scene is not None:
+        if scene is None:
+            continue
+        try:
             scene[render_stats.LAST_RENDER] = record
+        except AttributeError:
+            # Writes refused (a draw somewhere left Blender's flag at "no writes"): kept for the next tick,
+            # and the timer lives on; an exception would unregister it, and the guard with it.
+            _pending_records.setdefault(name, record)
+            break
     return _TIMER_SECONDS
-
-
-# F12 calls render() on a job thread. Blender (3.4 to 4.3 at least) keeps "may Python write blend data"
-# in one global flag, which each call into a Python class method saves, sets and restores. If the job
-# thread enters update_render_passes() or render() while the main thread is half-way through drawing a
-# panel or header in Python (the flag then says "no writes"), it saves "no writes" and puts it back when
-# it returns, after the main thread has restored "writes": from then on every bpy.ops call fails with
-# "can't modify blend data in this state (drawing/rendering)" and Blender cannot quit.
-# Python lets a waiting thread take the interpreter from a running one after sys.getswitchinterval()
-# (5 ms), so the job thread can take it in the middle of any draw longer than that, and it does so for
-# render_init and render_pre themselves (seen in tests/gui/render_repeat.py's trace, 6 ms into a 30 ms
-# header draw). So render_pre, on the job thread, before Blender calls the engine:
-#  1. makes a waiting thread wait 10 s instead, until the render job has ended, so that no draw that
-#     starts from now on can be interrupted (a draw of 10 s is beyond any panel; only a thread that wants
-#     the interpreter while another runs Python without a break, the render's scene export, waits);
-#  2. then waits until a main-thread timer has run. Timers run between events, never inside a draw, so
-#     a draw that the job thread interrupted to run render_pre has finished by then and restored the
-#     flag. Without this second step, Blender 4.3 still locked in 1 of 5 runs of 50 renders: after
-#     render_pre the job thread took the interpreter back before the main thread could finish its draw.
-# A forced race (render_repeat.py with 30 ms header draws) locked Blender at the 2nd render without
-# either step. The wait ends after _MAIN_THREAD_WAIT_SECONDS in any case (a main thread blocked on the
-# render job itself runs no timer and no draw), so it can delay a render but never hang one.
-_SWITCH_INTERVAL_WHILE_RENDERING = 10.0
-_TIMER_SECONDS = 0.1  # also the longest an F12 waits for the main thread (step 2), 50 ms on average
-_MAIN_THREAD_WAIT_SECONDS = 2.0
-_saved_switch_interval = []  # the interval to restore, while a render holds the guard
-_main_thread_between_calls = threading.Event()
 
 
 @bpy.app.handlers.persistent
 def _guard_render_start(scene, *_args):
-    """render_pre: takes the guard (released by _flush_last_renders once the job has ended rather than at
-    render_post, which the job thread runs before it is done) and waits for the main thread to be
-    outside any draw."""
-    if (threading.current_thread() is threading.main_thread() or scene is None
-            or scene.render.engine != RaylabRenderEngine.bl_idname):
+    """render_pre: takes the guard and parks the main thread before Blender calls the engine (step 1)."""
+    if not _on_job_thread() or scene is None or scene.render.engine != RaylabRenderEngine.bl_idname:
         return
-    if not _saved_switch_interval:  # else the last render's guard is still held: its job ended just now
-        _saved_switch_interval.append(sys.getswitchinterval())
-        sys.setswitchinterval(_SWITCH_INTERVAL_WHILE_RENDERING)
-    _main_thread_between_calls.clear()
-    _main_thread_between_calls.wait(_MAIN_THREAD_WAIT_SECONDS)  # lets go of the interpreter meanwhile
+    _take_guard()
+
+
+@bpy.app.handlers.persistent
+def _guard_render_end(scene, *_args):
+    """render_post and render_cancel: the engine's calls are over, the parked main thread may go on."""
+    if _on_job_thread():
+        _park_over.set()
+
+
+def _entering_render():
+    if _on_job_thread():
+        with _guard_lock:  # here, not by the main thread: it needs the interpreter this thread now holds
+            _release_render_guard()
+        _park_over.set()  # the main thread was parked while Blender called render(): it may go on
+
+
+def _leaving_render():
+    if _on_job_thread():
+        _take_guard()  # step 3: render() returns while the main thread is parked
 
 
 def _release_render_guard():
@@ -109,6 +163,13 @@ class RaylabRenderEngine(bpy.types.RenderEngine):
         cost_passes.register_passes(self, scene, renderlayer)
 
     def render(self, depsgraph):
+        _entering_render()
+        try:
+            self._render(depsgraph)
+        finally:
+            _leaving_render()
+
+    def _render(self, depsgraph):
         scene = depsgraph.scene
         props = scene.raylab_render
         build = structure_settings(scene)
@@ -225,6 +286,8 @@ def register():
         panel.COMPAT_ENGINES.add('RAYLAB')
     bpy.app.timers.register(_flush_last_renders, persistent=True)
     bpy.app.handlers.render_pre.append(_guard_render_start)
+    bpy.app.handlers.render_post.append(_guard_render_end)
+    bpy.app.handlers.render_cancel.append(_guard_render_end)
 
 
 def unregister():
@@ -233,6 +296,9 @@ def unregister():
     _pending_records.clear()
     if _guard_render_start in bpy.app.handlers.render_pre:
         bpy.app.handlers.render_pre.remove(_guard_render_start)
+    for handlers in (bpy.app.handlers.render_post, bpy.app.handlers.render_cancel):
+        if _guard_render_end in handlers:
+            handlers.remove(_guard_render_end)
     _release_render_guard()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.discard('RAYLAB')

@@ -2,6 +2,7 @@
 on, per timer tick, so that the boxes can be watched following the object (they are drawn with its
 transform; an AABB is rebuilt in world space)."""
 import math
+import threading
 
 import bpy
 
@@ -41,6 +42,10 @@ _last_frame = {}
 
 @bpy.app.handlers.persistent
 def _on_frame_change(scene, *_):
+    # Blender runs frame_change handlers on a render job's thread too (F12 evaluates the render's
+    # depsgraph there; an animation render changes frames there): that thread never writes an ID.
+    if threading.current_thread() is not threading.main_thread():
+        return
     frame = (scene.frame_current, scene.frame_subframe)
     changed = _last_frame.get(scene.name_full, frame) != frame
     _last_frame[scene.name_full] = frame

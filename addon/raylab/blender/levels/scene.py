@@ -192,7 +192,9 @@ def _remove_scene(scene):
     else. Objects the user added stay where they are: the scene is then kept as theirs, no longer a level."""
     # The token as a Python str: the state is freed with the scene, and reading it after that crashed 5.2.
     token = state(scene).get("token")
-    for obj in [o for o in scene.objects if owned(o, token) and len(o.users_scene) == 1]:
+    leaving = [o for o in scene.objects if owned(o, token) and len(o.users_scene) == 1]
+    holders = _depsgraphs_holding(scene)
+    for obj in leaving:
         data, materials = obj.data, list(getattr(obj.data, "materials", ()))
         bpy.data.objects.remove(obj)
         if owned(data, token) and data.users == 0 and _data_collection(data) is not None:
@@ -205,12 +207,48 @@ def _remove_scene(scene):
     if users:
         del scene[STATE_KEY]
         scene.name = scene.name + KEPT_SUFFIX
+        _update_depsgraphs(holders)
         return scene
     world = scene.world
     bpy.data.scenes.remove(scene)
     if owned(world, token) and world.users == 0:
         bpy.data.worlds.remove(world)
+    _update_depsgraphs(holders)
     return None
+
+
+# A scene that was shown keeps its depsgraph (one per view layer) when the window shows another, and
+# Blender evaluates it again only when it is shown again: until then it holds its evaluated copies of
+# objects that were deleted meanwhile, their originals freed. Blender's GPU garbage collection (every
+# 60 s, DRW_cache_free_old_batches, from a 3D viewport's draw) walks the depsgraph of every scene and reads
+# each copy's original: Blender 5.2 crashed there (object_orig->runtime->select_id) in CI during the race
+# level (issue 40). A level scene kept for the user's objects lost the level's objects while its depsgraph
+# held them (seen from a script: tests/blender/test_level_depsgraphs.py). So the depsgraphs that may hold
+# the deleted objects, the scene's own and those of scenes that show it as a background set, are evaluated
+# again once they are gone, which drops their copies. They are not read before: walking a depsgraph that
+# is already stale reads freed objects itself.
+def _depsgraphs_holding(scene):
+    """Pointers of the scenes whose depsgraphs may hold copies of `scene`'s objects: itself, and every
+    scene with it in its chain of background sets."""
+    holders = []
+    for other in bpy.data.scenes:
+        link, seen = other, set()
+        while link is not None and link.as_pointer() not in seen:
+            if link == scene:
+                holders.append(other.as_pointer())
+                break
+            seen.add(link.as_pointer())
+            link = link.background_set
+    return holders
+
+
+def _update_depsgraphs(holders):
+    """Evaluates again the built depsgraphs of those scenes that are still there."""
+    for scene in bpy.data.scenes:
+        if scene.as_pointer() in holders:
+            for view_layer in scene.view_layers:
+                if view_layer.depsgraph is not None:
+                    view_layer.depsgraph.update()
 
 
 def _data_collection(data):
@@ -239,6 +277,31 @@ def _drop_name_suffixes(scene):
                 scene[STATE_KEY]["mesh_object"] = base
 
 
+def _lay_out_top_bar_again(window):
+    """Blender 3.4 draws a window's top bar (File, Edit, Render..., the workspace tabs) empty once its scene
+    has a name of 16 or more characters after a render window was opened and closed (with Workbench and no
+    add-on too: a rename is enough), and a level scene's name is that long; it stays empty until the
+    workspace changes (issue 40; tests/gui/test_top_bar_gui.py). So the window goes to another workspace
+    and, one timer tick later, back: Blender lays the top bar out again. The other workspace shows this
+    object mode and no pinned scene, so the round trip changes neither."""
+    if bpy.app.version >= (4, 0, 0) or bpy.app.background or window.screen is None or window.screen.is_temporary:
+        return  # (in the background no timer would bring the workspace back, and nothing is drawn)
+    workspace = window.workspace
+    other = next((w for w in bpy.data.workspaces if w != workspace and not w.use_pin_scene
+                  and w.object_mode == workspace.object_mode), None)
+    if other is None:
+        return
+    window.workspace = other
+    pointer, name = window.as_pointer(), workspace.name
+
+    def back():
+        for w in bpy.context.window_manager.windows:  # the window, if it is still open
+            if w.as_pointer() == pointer and w.workspace == other and name in bpy.data.workspaces:
+                w.workspace = bpy.data.workspaces[name]
+        return None
+    bpy.app.timers.register(back, first_interval=0.0)
+
+
 def open_level(context, level_id, root=None):
     """Builds the level's scene from scratch and makes it the window's scene; the previous level's
     scene is removed (the user's own scenes are kept). Returns the new scene. Raises LevelError."""
@@ -258,6 +321,7 @@ def open_level(context, level_id, root=None):
             close(window)
         window.scene = scene
         _frame_views(window, level)
+        _lay_out_top_bar_again(window)
     # Every other level scene goes (shown or not: none piles up); the user's scenes, copies included, stay.
     for previous in [s for s in bpy.data.scenes if s != scene and state(s) is not None]:
         _remove_scene(previous)

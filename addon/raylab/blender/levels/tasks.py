@@ -4,6 +4,7 @@ one is checked), so "hit the object again" cannot tick while the ray still hits 
 `changed` compares with the value when the task began."""
 import json
 import math
+import threading
 
 import bpy
 from mathutils import Matrix, Vector
@@ -148,6 +149,10 @@ def check_tasks(scene):
 
 @bpy.app.handlers.persistent
 def _on_depsgraph_update(scene, _depsgraph):
+    # A render job's thread never writes an ID (issue 40). F12 on 3.4 runs frame_change handlers there, and
+    # this one on the main thread; should a Blender run it there too, the tasks' timer checks instead.
+    if threading.current_thread() is not threading.main_thread():
+        return
     keep_stamps()  # a new scene copied from a level is the user's: it drops the copied state at once
     check_tasks(scene)
 
