@@ -126,8 +126,7 @@ def object_lines(context):
     the objects ranked by their share of the triangle tests, the costliest TOP_OBJECTS by name and how
     many more."""
     scene = context.scene
-    entries = {obj.name_full: structure_cache.cached(obj, scene)
-               for obj in structure_cache.target_objects(scene, context.view_layer)}
+    entries = structure_cache.cached_entries(scene)  # every shown geometry: text and instances too
     lines = [(f"{name}: {entry.error}", 'ERROR') for name, entry in entries.items() if entry and entry.error]
     built = {name: entry for name, entry in entries.items() if entry and entry.structure is not None}
     if not built:
