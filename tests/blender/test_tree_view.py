@@ -1,11 +1,17 @@
 """The tree view's model inside Blender (no window: the drawing is tests/gui/test_student_gui.py's): walking
 the tree with the panel's buttons, what the panel says of a node, the Split Explorer's boxes, the cost
 against the SAH builder's, and the kinds without a tree."""
+import os
+
 import bpy
 import numpy as np
 import pytest
 
+import raylab
+from raylab import sah_cost
 from raylab.blender import levels, structure_cache, tree_view
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir)
 
 
 @pytest.fixture
@@ -48,17 +54,31 @@ def test_the_buttons_walk_to_the_parent_the_children_and_the_siblings(why_sah):
     assert settings.node == kids[2]
     walk('ROOT')
     walk('COSTLIEST')
-    assert settings.node == kids[np.argmax(tree.sah_cost[kids])]
+    assert tree.costliest_leaf[settings.node] == tree.costliest_leaf[0]  # the child holding the costliest leaf
 
 
-def test_the_costliest_path_ends_at_a_leaf_and_ticks_the_property(why_sah):
+@pytest.mark.parametrize("builder", ["sah", "median"])
+def test_the_costliest_path_ends_on_the_leaf_holding_the_most_cost(why_sah, builder):
+    """Follow the cost down: Costliest from the root ends on the leaf that costs rays the most (each leaf's
+    own SAH cost, from the core), and every node on the way shows more of the cost below it than that leaf."""
+    why_sah.raylab.builder = builder
+    structure_cache.scene_model(why_sah)
     settings = why_sah.raylab_tree
     walk('ROOT')
     assert not settings.picked_costliest
     tree = the_tree(why_sah)
+    path = [0]
     for _ in range(64):
         walk('COSTLIEST')
+        if settings.node == path[-1]:
+            break
+        path.append(settings.node)
+    leaves = np.flatnonzero(np.bincount(tree.parent[1:], minlength=len(tree)) == 0)
     assert tree.children.count(settings.node) == 0 and settings.picked_costliest
+    assert tree.sah_cost[settings.node] == tree.sah_cost[leaves].max()
+    assert all(tree.cost_below[a] >= tree.cost_below[b] for a, b in zip(path, path[1:]))
+    share = [text for text, _ in tree_view.node_lines(tree, settings.node) if "of the tree's" in text][0]
+    assert "0.0%" not in share and "of the tree's" in share  # a leaf's small share still reads
 
 
 def test_the_panel_tells_a_node_s_depth_triangles_area_and_share_of_the_cost(why_sah):
@@ -69,8 +89,35 @@ def test_the_panel_tells_a_node_s_depth_triangles_area_and_share_of_the_cost(why
     assert f"{int(tree.triangle_count[0]):,} triangles" in texts[1]
     assert "100.0% of the root's" in texts[2]
     assert sum(tree.sah_cost) == pytest.approx(tree.cost)  # the shares add up to the tree's cost
+    # One unit, the triangle tests (SAH_CONSTANTS' leaf block times the core's cost): the root's cost below
+    # is the tree's whole cost, each inner node's is its own and its children's.
+    assert tree.total_cost == pytest.approx(tree.cost * raylab.SAH_CONSTANTS["leaf_block"])
+    assert f"100.0% of the tree's {tree.total_cost:.4g}" in texts[3] and "triangle tests" in texts[3]
+    for node in tree.children(0):
+        below = tree.sah_cost[node] * raylab.SAH_CONSTANTS["leaf_block"] + sum(
+            tree.cost_below[k] for k in tree.children(int(node)))
+        assert tree.cost_below[node] == pytest.approx(below)
     leaf = int(np.flatnonzero([tree.children.count(n) == 0 for n in range(len(tree))])[0])
     assert "leaf" in tree_view.node_lines(tree, leaf)[0][0]
+
+
+def test_a_leaf_costs_its_triangles_in_the_panel_the_explorer_and_the_text(why_sah):
+    """Item 2 of issue 42: a node of n triangles "as a leaf" costs n triangle tests (rounded up to a whole
+    block of SAH_CONSTANTS' leaf_block) in the panel, in the Split Explorer's line and in the level's text."""
+    obj, entry = tree_view.target(bpy.context)
+    tree = the_tree(why_sah)
+    block = raylab.SAH_CONSTANTS["leaf_block"]
+    node = int(tree.children(0)[0])
+    count = int(tree.triangle_count[node])
+    as_leaf = block * -(-count // block)
+    texts = [text for text, _ in tree_view.node_lines(tree, node)]
+    assert f"As a leaf it would cost {as_leaf:,} triangle tests per ray into it" in texts
+    splits = tree.splits(node, entry.structure)
+    assert sah_cost.in_tests(splits["leaf_cost"]) == as_leaf
+    visit = raylab.SAH_CONSTANTS["node_visit"] * block
+    text = " ".join(open(os.path.join(ROOT, "levels", "why_sah", "text.md"), encoding="utf-8").read().split())
+    assert f"a node visit costs {visit:g} triangle tests" in text
+    assert f"rounded up to a whole block of {block}" in text
 
 
 def test_the_split_explorer_s_child_boxes_make_up_the_node_s_box(why_sah):

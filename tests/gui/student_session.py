@@ -267,6 +267,15 @@ def bvh_1(run):
     yield from step(run, f"Level mesh: {name}", 4)
 
 
+def read_tree(scene):
+    return tree_view._last_read[scene.name_full]
+
+
+def leaves(scene):
+    parent = read_tree(scene).parent
+    return np.bincount(parent[parent >= 0], minlength=len(parent)) == 0
+
+
 def why_sah(run):
     scene = yield from open_level("why_sah")
     tree = scene.raylab_tree
@@ -279,7 +288,10 @@ def why_sah(run):
             break
         assert press(bpy.ops.raylab.tree_walk, step='COSTLIEST') == {'FINISHED'}
         yield POLL
-    yield from step(run, "Costliest, down to a leaf", 2, node=lambda: tree.node)
+    # The path ends on the leaf that costs rays the most; the panel reads its share of the tree's cost.
+    yield from step(run, "Costliest, down to a leaf", 2, node=lambda: tree.node,
+                    costliest_leaf=lambda: int(np.argmax(np.where(leaves(scene), read_tree(scene).sah_cost, -1))),
+                    panel=lambda: [text for text, _ in tree_view.node_lines(read_tree(scene), tree.node)])
     assert press(bpy.ops.raylab.tree_walk, step='PARENT') == {'FINISHED'}
     yield from step(run, "Up to its parent: the Split Explorer shows its splits", 3, node=lambda: tree.node)
     yield 1.0  # the view drawn with the picked node

@@ -11,12 +11,13 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
-from .. import api, tree_layout
+from .. import api, sah_cost, tree_layout
 from . import draw, overlay, structure_cache, text_fit, viewport_panels
 
 COLOURS = (
     ("DEPTH", "Depth", "Each node in the colour of its depth, as the overlay draws its box"),
-    ("SAH", "SAH cost", "Each node's SAH cost against the costliest node of its depth: cold (cheap) to hot"),
+    ("SAH", "SAH cost", "The SAH cost below each node (its own and its subtree's) against the costliest of its "
+                        "depth: cold (cheap) to hot"),
     ("TRIANGLES", "Triangles", "Each node's triangles against the most of its depth: cold (few) to hot (many)"),
 )
 TREE_DIM = 0.25  # the other boxes' alpha while a node is picked: its own boxes stand out
@@ -50,8 +51,8 @@ class TreeSettings(bpy.types.PropertyGroup):
                            description="BVH: the SAH cost of every candidate split of the picked node")
     # What a level's tasks read (read-only; from the tree last read, never calling the core).
     picked_costliest: BoolProperty(name="Costliest Leaf Picked", get=lambda self: _picked_costliest(self.id_data),
-                                   description="The picked node is the leaf at the end of the costliest path: "
-                                               "from the root, each node's costliest child")
+                                   description="The picked node is the tree's costliest leaf, where the costliest "
+                                               "path ends: from the root, the child holding the costliest leaf")
     split_shown: BoolProperty(name="Split Shown", get=lambda self: _split_shown(self.id_data),
                               description="The Split Explorer shows the picked node's candidate splits")
     cost_over_sah: FloatProperty(name="Cost over SAH's", get=lambda self: _cost_over_sah(self.id_data),
@@ -77,7 +78,13 @@ class Tree:
         self.sah_cost = (np.asarray(arrays["sah_cost"], dtype=np.float64) if self.has_sah
                          else np.zeros(len(self.parent)))
         self.children = tree_layout.Children(self.parent)
-        self.total_cost = float(self.sah_cost.sum())
+        # In triangle tests per ray through the root (sah_cost.py): each node's cost with its subtree's,
+        # and the leaf below each node that costs the most, which Costliest walks to.
+        self.cost_below = sah_cost.subtree_costs(self.parent, self.depth, sah_cost.in_tests(self.sah_cost))
+        self.total_cost = float(self.cost_below[self.children.root])
+        self.costliest_leaf = sah_cost.costliest_leaves(self.parent, self.depth,
+                                                        np.bincount(self.parent[self.parent >= 0],
+                                                                    minlength=len(self)) == 0, self.sah_cost)
         extent = np.maximum(self.hi - self.lo, 0.0).astype(np.float64)
         self.area = 2.0 * (extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0])
         self._splits = {}
@@ -105,8 +112,12 @@ class Tree:
         return self._subtree[1]
 
     def costliest_child(self, node):
+        """The child holding the node's costliest leaf (None for a leaf): followed from the root, the
+        path ends on the tree's costliest leaf."""
         kids = self.children(node)
-        return int(kids[np.argmax(self.sah_cost[kids])]) if len(kids) else None
+        if len(kids) == 0 or not self.has_sah:
+            return None
+        return int(kids[np.flatnonzero(self.costliest_leaf[kids] == self.costliest_leaf[node])[0]])
 
     def picture(self, focus, levels):
         key = (focus, levels)
@@ -211,10 +222,7 @@ def _picked_costliest(scene):
     tree = _last_read.get(scene.name_full)
     if tree is None:
         return False
-    node = 0
-    while tree.costliest_child(node) is not None:
-        node = tree.costliest_child(node)
-    return tree.node(scene.raylab_tree.node) == node
+    return bool(tree.has_sah and tree.node(scene.raylab_tree.node) == tree.costliest_leaf[tree.children.root])
 
 
 def _split_shown(scene):
@@ -271,7 +279,7 @@ def node_colours(tree, nodes, mode):
     if mode == "DEPTH":
         palette = overlay.DEPTH_PALETTE_RGBA
         return palette[tree.depth[nodes] % len(palette)]
-    values = tree.sah_cost[nodes] if mode == "SAH" else tree.triangle_count[nodes].astype(np.float64)
+    values = tree.cost_below[nodes] if mode == "SAH" else tree.triangle_count[nodes].astype(np.float64)
     # Against the largest of the same depth: a node's cost falls with its depth (its box's area), so one
     # scale for all would leave everything below the root cold. The square root spreads the small values.
     depth = tree.depth[nodes]
@@ -364,7 +372,7 @@ def _draw_chart(frame, splits):
         _lines(np.array([[cx, y0 + 8], [cx, y0 + h - top]]), AXIS_COLOURS[axis])
         _outline(cx, cy, 5, PICKED)
     label = "xyz"[axis] if axis >= 0 else "none"
-    _text(x0 + 8, y0 + h - 18, f"Split costs along x, y, z; chosen: {label}")
+    _text(x0 + 8, y0 + h - 18, f"Split cost ({sah_cost.UNIT}) along x, y, z; chosen: {label}")
 
 
 def _draw_frame(frame):
@@ -471,14 +479,14 @@ def dimming(scene):
 
 STEPS = {
     'PARENT': "The picked node's parent", 'CHILD': "Its first child", 'NEXT': "Its next sibling",
-    'PREVIOUS': "Its previous sibling", 'ROOT': "The root", 'COSTLIEST': "Its child with the highest SAH cost",
+    'PREVIOUS': "Its previous sibling", 'ROOT': "The root", 'COSTLIEST': "Its child holding its costliest leaf",
     'FOCUS': "Show the tree from the picked node down", 'UNFOCUS': "Show the whole tree again",
 }
 
 
 def walk(tree, node, step):
     """The node a step leads to from `node`: 'PARENT', 'CHILD' (the first), 'NEXT'/'PREVIOUS' (sibling),
-    'ROOT', 'COSTLIEST' (the child with the highest SAH cost); the node itself where there is none."""
+    'ROOT', 'COSTLIEST' (the child holding the costliest leaf); the node itself where there is none."""
     if step == 'ROOT':
         return 0
     parent = int(tree.parent[node])
@@ -584,7 +592,7 @@ def node_lines(tree, node):
     """What the panel says of a node: [(text, icon)]."""
     kids = tree.children.count(node)
     kind = f"inner node, {kids} children" if kids else "leaf"
-    share = tree.sah_cost[node] / tree.total_cost if tree.total_cost > 0 else 0.0
+    share = tree.cost_below[node] / tree.total_cost if tree.total_cost > 0 else 0.0
     root_area = tree.area[0] if tree.area[0] > 0 else 1.0
     lines = [
         (f"Node {node}: depth {int(tree.depth[node])}, {kind}", 'OUTLINER_DATA_LIGHTPROBE'),
@@ -592,10 +600,17 @@ def node_lines(tree, node):
         (f"Surface area {tree.area[node]:.4g} ({tree.area[node] / root_area:.1%} of the root's)", 'CUBE'),
     ]
     if tree.has_sah:
-        lines.append((f"SAH cost {tree.sah_cost[node]:.4g}: {share:.1%} of the tree's {tree.total_cost:.4g}",
-                      'SORTSIZE'))
+        leaf = int(tree.costliest_leaf[node])
+        lines.append((f"SAH cost here and below: {tree.cost_below[node]:.4g} {sah_cost.UNIT} per ray through the "
+                      f"root, {sah_cost.percent(share)} of the tree's {tree.total_cost:.4g}", 'SORTSIZE'))
+        lines.append((f"As a leaf it would cost {sah_cost.leaf_tests(int(tree.triangle_count[node])):,} "
+                      f"{sah_cost.UNIT} per ray into it", 'NONE'))
+        if kids:
+            lines.append((f"Its costliest leaf: node {leaf}, {tree.cost_below[leaf]:.3g} {sah_cost.UNIT} per ray "
+                          f"through the root", 'NONE'))
     if tree.sah_reference and tree.cost is not None:
-        lines.append((f"The tree's SAH cost {tree.cost:.4g}, the SAH builder's {tree.sah_reference:.4g}", 'INFO'))
+        lines.append((f"The tree's SAH cost {sah_cost.in_tests(tree.cost):.4g} {sah_cost.UNIT}, the SAH "
+                      f"builder's {sah_cost.in_tests(tree.sah_reference):.4g}", 'INFO'))
     return lines
 
 
@@ -634,8 +649,9 @@ class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
         if splits is not None and splits["axis"] >= 0:
             method = api.SPLIT_METHOD_INFO[splits["method"]]["description"]
             text_fit.label(layout, context, f"Split along {'xyz'[splits['axis']]}, {splits['across_chosen']:.0%} "
-                                            f"across the box: {method}. Its SAH cost {splits['cost']:.4g}, as a "
-                                            f"leaf {splits['leaf_cost']:.4g}", 'MOD_EDGESPLIT')
+                                            f"across the box: {method}. Per ray into this node the split costs "
+                                            f"{sah_cost.in_tests(splits['cost']):.4g} {sah_cost.UNIT}, a leaf "
+                                            f"{sah_cost.in_tests(splits['leaf_cost']):.4g}", 'MOD_EDGESPLIT')
 
 
 CLASSES = (TreeSettings, RAYLAB_OT_tree_walk, RAYLAB_OT_tree_click, RAYLAB_OT_tree_key, RAYLAB_PT_tree)
