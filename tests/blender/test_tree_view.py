@@ -81,6 +81,32 @@ def test_the_costliest_path_ends_on_the_leaf_holding_the_most_cost(why_sah, buil
     assert "0.0%" not in share and "of the tree's" in share  # a leaf's small share still reads
 
 
+@pytest.mark.parametrize("change", ["builder", "mesh"])
+def test_a_new_tree_picks_its_root_and_says_so(why_sah, change):
+    """Issue 42 item 4: node 183 of another tree is another place (the spout under the SAH, the handle under
+    the median): a Builder switch or a mesh swap picks the new tree's root, and the panel says why."""
+    settings = why_sah.raylab_tree
+    walk('ROOT')
+    for _ in range(4):
+        walk('COSTLIEST')
+    tree = the_tree(why_sah)
+    old = settings.node
+    assert old != 0 and tree_view.picked(why_sah, the_tree(why_sah)) == (old, 0, False)  # kept while unchanged
+    if change == "builder":
+        why_sah.raylab.builder = "median"
+    else:
+        assert bpy.ops.raylab.level_swap_mesh(source="file:sphere.obj") == {'FINISHED'}
+    structure_cache.scene_model(why_sah)
+    new = the_tree(why_sah)
+    assert new.shape != tree.shape
+    assert tree_view.picked(why_sah, new) == (0, 0, True)
+    assert tree_view.node_lines(new, 0, True)[0][0].startswith("A new tree")
+    assert not settings.picked_costliest
+    walk('CHILD')  # a step starts from the root of the new tree
+    assert settings.node == new.children(0)[0] and settings.focus == 0
+    assert tree_view.picked(why_sah, new) == (settings.node, 0, False)
+
+
 def test_the_panel_tells_a_node_s_depth_triangles_area_and_share_of_the_cost(why_sah):
     walk('ROOT')
     tree = the_tree(why_sah)

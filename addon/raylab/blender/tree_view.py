@@ -7,6 +7,8 @@ The numbers come from the core (Structure.tree(), Structure.split_costs(node)); 
 panels' draws (the viewport's draw handlers and the operators), which must not call the core: see
 levels.available_levels for why.
 """
+import hashlib
+
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
@@ -37,9 +39,10 @@ class TreeSettings(bpy.types.PropertyGroup):
     enabled: BoolProperty(name="Tree View", default=False, update=lambda self, context: draw.tag_redraw(context),
                           description="Draw the active object's structure as a tree over the viewport; click a "
                                       "node to see its box")
-    node: IntProperty(name="Node", default=0, min=0, update=lambda self, context: draw.tag_redraw(context),
-                      description="The picked node (its index in Structure.tree())")
-    focus: IntProperty(name="Focus", default=0, min=0, update=lambda self, context: draw.tag_redraw(context),
+    node: IntProperty(name="Node", default=0, min=0, update=lambda self, context: _on_pick(self, context),
+                      description="The picked node (its index in Structure.tree()); a new tree (another "
+                                  "Builder, mesh or leaf size) picks its root")
+    focus: IntProperty(name="Focus", default=0, min=0, update=lambda self, context: _on_pick(self, context),
                        description="The node the tree view starts from (0: the root)")
     levels: IntProperty(name="Levels", default=3, min=1, max=24, update=lambda self, context: draw.tag_redraw(context),
                         description="How many levels below the focus the tree view shows; deeper nodes are "
@@ -91,6 +94,9 @@ class Tree:
         self._pictures = {}
         self._subtree = (None, None)
         self.cost = self.sah_reference = None  # Structure.sah_cost() of this tree and of the SAH builder's
+        # Names the tree's shape: a refit keeps it (and so the pick), a Builder switch or a new mesh not.
+        self.shape = hashlib.blake2b(self.parent.tobytes() + self.triangle_count.tobytes()
+                                     + self.kind.encode(), digest_size=16).digest()
 
     def __len__(self):
         return len(self.parent)
@@ -216,20 +222,54 @@ def tree_of(obj, entry, scene):
 
 
 _last_read = {}  # scene name -> the Tree the view last read there (what the tasks' properties look at)
+_picks = {}  # scene name -> (the shape of the tree the node and focus were picked in, node, focus)
+
+
+def _on_pick(settings, context):
+    """The node or focus was set (an operator, a click, a level, a script): it names a node of the tree
+    the view reads now."""
+    scene = settings.id_data
+    tree = _last_read.get(scene.name_full)
+    _picks[scene.name_full] = (None if tree is None else tree.shape, settings.node, settings.focus)
+    draw.tag_redraw(context)
+
+
+def picked(scene, tree):
+    """(picked node, focus, reset) of `tree`: scene.raylab_tree's node and focus while the tree has the shape
+    they were picked in; its root once the tree changed (a Builder switch, a mesh swap, a leaf size: node
+    183 of another tree is another place), `reset` then True. A refit keeps the shape, and so the pick."""
+    settings = scene.raylab_tree
+    shape, node, focus = _picks.get(scene.name_full, (None, None, None))
+    if (node, focus) != (settings.node, settings.focus) or shape is None:
+        # Set without the update (an undo, a file just loaded): picked in the tree read now.
+        _picks[scene.name_full] = (tree.shape, settings.node, settings.focus)
+    elif shape != tree.shape:
+        root = tree.children.root
+        return root, root, (settings.node, settings.focus) != (root, root)
+    return tree.node(settings.node), tree.node(settings.focus), False
+
+
+def settle_pick(scene, tree):
+    """Writes the root as node and focus if the tree changed since they were picked (operators only: a draw
+    may not write), so that a step from there starts at the root and keeps the view where it was drawn."""
+    node, focus, reset = picked(scene, tree)
+    if reset:
+        scene.raylab_tree.node, scene.raylab_tree.focus = node, focus
+    return node
 
 
 def _picked_costliest(scene):
     tree = _last_read.get(scene.name_full)
     if tree is None:
         return False
-    return bool(tree.has_sah and tree.node(scene.raylab_tree.node) == tree.costliest_leaf[tree.children.root])
+    return bool(tree.has_sah and picked(scene, tree)[0] == tree.costliest_leaf[tree.children.root])
 
 
 def _split_shown(scene):
     tree = _last_read.get(scene.name_full)
     settings = scene.raylab_tree
     return (tree is not None and settings.enabled and settings.explorer
-            and tree.known_splits(tree.node(settings.node)) is not None)
+            and tree.known_splits(picked(scene, tree)[0]) is not None)
 
 
 def _cost_over_sah(scene):
@@ -309,8 +349,8 @@ def _draw_tree_view():
     except ValueError as error:
         _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, str(error))
         return
-    picked = tree.node(settings.node)
-    focus = shown_focus(tree, tree.node(settings.focus), picked, settings.levels)
+    picked_node, focus, _ = picked(context.scene, tree)
+    focus = shown_focus(tree, focus, picked_node, settings.levels)
     picture = tree.picture(focus, settings.levels)
     x0, y0, w, h = tree_frame
     xs, ys = tree_layout.positions(picture, w, h - TITLE_HEIGHT)
@@ -330,7 +370,7 @@ def _draw_tree_view():
         stems = np.stack([np.stack([xs[collapsed], ys[collapsed] - size], 1),
                           np.stack([xs[collapsed], ys[collapsed] - size - 6], 1)], 1).reshape(-1, 2)
         _lines(stems, (1.0, 1.0, 1.0, 0.8))
-    where = np.flatnonzero(nodes == picked)
+    where = np.flatnonzero(nodes == picked_node)
     if len(where):
         i = where[0]
         _outline(xs[i], ys[i], size + 3, PICKED)
@@ -338,7 +378,7 @@ def _draw_tree_view():
              f"showing {len(nodes):,} below node {focus}. Click a node.")
     _text(x0 + 8, y0 + h - 18, title)
     if settings.explorer:
-        splits = tree.splits(picked, entry.structure)
+        splits = tree.splits(picked_node, entry.structure)
         if splits is not None:
             _draw_frame(chart_frame)
             _draw_chart(chart_frame, splits)
@@ -449,17 +489,17 @@ def _draw_picked_boxes():
         tree = tree_of(obj, entry, context.scene)
     except ValueError:
         return  # the tree view's frame says why
-    picked = tree.node(settings.node)
+    picked_node = picked(context.scene, tree)[0]
     xray = context.scene.raylab.xray
     matrix = entry.model_matrix(obj)
-    subtree = tree.subtree(picked)[1:]
+    subtree = tree.subtree(picked_node)[1:]
     if len(subtree):
         _draw_boxes(tree.lo[subtree], tree.hi[subtree], SUBTREE, matrix, xray)
-    splits = tree.splits(picked, entry.structure) if settings.explorer else None
+    splits = tree.splits(picked_node, entry.structure) if settings.explorer else None
     if splits is not None and splits["axis"] >= 0:
         for (lo, hi), colour in zip(splits["child_boxes"], CHILD_COLOURS):
             _draw_boxes(np.asarray([lo]), np.asarray([hi]), colour, matrix, xray, width=2.0)
-    _draw_boxes(tree.lo[[picked]], tree.hi[[picked]], PICKED, matrix, xray, width=3.0)
+    _draw_boxes(tree.lo[[picked_node]], tree.hi[[picked_node]], PICKED, matrix, xray, width=3.0)
 
 
 def _draw_boxes(lo, hi, colour, matrix, xray, width=1.0):
@@ -526,7 +566,7 @@ class RAYLAB_OT_tree_walk(bpy.types.Operator):
         except ValueError as error:
             self.report({'WARNING'}, f"raylab: {error}")
             return {'CANCELLED'}
-        node = tree.node(settings.node)
+        node = settle_pick(context.scene, tree)
         if self.child >= 0:
             kids = tree.children(node)
             if self.child < len(kids):
@@ -559,6 +599,9 @@ class RAYLAB_OT_tree_click(bpy.types.Operator):
         if not (x <= mx <= x + w and y <= my <= y + h):
             return {'PASS_THROUGH'}
         node = tree_layout.nearest(picture, mx - x, my - y, w, h - TITLE_HEIGHT, CLICK_RADIUS)
+        tree = _last_read.get(context.scene.name_full)
+        if tree is not None:  # the picture drawn from the root of a new tree: its focus is the root too
+            settle_pick(context.scene, tree)
         if node is not None:  # else inside the frame but on no node: the click is the tree view's all the same
             context.scene.raylab_tree.node = node
         return {'FINISHED'}
@@ -588,8 +631,9 @@ class RAYLAB_OT_tree_key(bpy.types.Operator):
 
 # --- the sidebar panel -----------------------------------------------------------------------------------
 
-def node_lines(tree, node):
-    """What the panel says of a node: [(text, icon)]."""
+def node_lines(tree, node, reset=False):
+    """What the panel says of a node: [(text, icon)]; `reset`: the pick went back to the root as the tree
+    changed (picked)."""
     kids = tree.children.count(node)
     kind = f"inner node, {kids} children" if kids else "leaf"
     share = tree.cost_below[node] / tree.total_cost if tree.total_cost > 0 else 0.0
@@ -608,6 +652,8 @@ def node_lines(tree, node):
         if kids:
             lines.append((f"Its costliest leaf: node {leaf}, {tree.cost_below[leaf]:.3g} {sah_cost.UNIT} per ray "
                           f"through the root", 'NONE'))
+    if reset:
+        lines.insert(0, ("A new tree (Builder, mesh or leaf size changed): the pick went back to the root", 'INFO'))
     if tree.sah_reference and tree.cost is not None:
         lines.append((f"The tree's SAH cost {sah_cost.in_tests(tree.cost):.4g} {sah_cost.UNIT}, the SAH "
                       f"builder's {sah_cost.in_tests(tree.sah_reference):.4g}", 'INFO'))
@@ -632,9 +678,9 @@ class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
         if obj is None:
             text_fit.label(layout, context, tree, 'INFO')
             return
-        node = tree.node(settings.node)
+        node, _, reset = picked(context.scene, tree)
         box = layout.box()
-        for text, icon in node_lines(tree, node):
+        for text, icon in node_lines(tree, node, reset):
             text_fit.label(box, context, text, icon, boxes=1)
         row = layout.row(align=True)
         for step, icon in (('PARENT', 'TRIA_UP'), ('PREVIOUS', 'TRIA_LEFT'), ('NEXT', 'TRIA_RIGHT'),
