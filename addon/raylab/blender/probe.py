@@ -147,13 +147,22 @@ PROBE_COUNTERS = ("triangle_tests", "box_tests", "nodes_visited")  # of api.COUN
 
 def counts_text(public):
     """The probe's counts line, in the counters' labels: "triangle tests 12 / 968, box tests 30, ..."."""
-    parts = [f"{api.COUNTER_INFO[c]['label'].lower()} {public[c]}" for c in PROBE_COUNTERS]
-    parts[0] += f" / {public['triangle_total']}"
+    parts = [f"{api.COUNTER_INFO[c]['label'].lower()} {public[c]:,}" for c in PROBE_COUNTERS]
+    parts[0] += f" / {public['triangle_total']:,}"
     return ", ".join(parts)
 
 
+def fan_work_text(rays, work):
+    """The fan's summary line: its rays' work added up, in the counters' labels, and per ray, so that two
+    structures compare at a glance: "fan of 1,024 rays: triangle tests 12,345 (12.1 a ray), ..."."""
+    parts = [f"{api.COUNTER_INFO[c]['label'].lower()} {work[c]:,} ({work[c] / max(rays, 1):.1f} a ray)"
+             for c in PROBE_COUNTERS]
+    return f"fan of {rays:,} rays, in all: " + ", ".join(parts)
+
+
 def _empty_public():
-    return dict(status="", triangle_total=0, hit_point=None, **dict.fromkeys(PROBE_COUNTERS, 0))
+    return dict(status="", triangle_total=0, hit_point=None, fan_rays=0, fan_work=None,
+                **dict.fromkeys(PROBE_COUNTERS, 0))
 
 
 def _probe_key(scene, model):
@@ -191,8 +200,10 @@ def probe_result(scene, depsgraph=None):
         text = [status_message(story, settings.structure), counts_text(public)]
         fan_drawing = None
         if fan[0] is not None:
-            fan_drawing, fan_counts = _trace_fan(model.scene, fan, settings.probe_length, settings.fan_size)
-            text.append("fan: " + ", ".join(f"{fan_counts[s]} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
+            fan_drawing, fan_counts, fan_work = _trace_fan(model.scene, fan, settings.probe_length, settings.fan_size)
+            text.append("fan: " + ", ".join(f"{fan_counts[s]:,} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
+            public.update(fan_rays=len(fan[0]), fan_work=fan_work)
+            text.append(fan_work_text(len(fan[0]), fan_work))
         length = story.hit["t"] if story.hit is not None else settings.probe_length
         drawing = _drawing(story, origins[0], directions[0], length)
         result = ProbeResult(key, public, text + errors, drawing, fan_drawing)
@@ -210,14 +221,17 @@ def fan_lines(side):
 
 def _trace_fan(traced_scene, fan, length, side):
     """The fan's rays in world space, ending at their hits (or after `length`), with the statuses the
-    scene's stories would give them, the rays drawn as lines, and how many rays have each status."""
+    scene's stories would give them, the rays drawn as lines, how many rays have each status, and the
+    work of all its rays added up ({counter: total} of PROBE_COUNTERS: what their stories count)."""
     origins, directions, _ = fan
     result = traced_scene.statuses(origins, directions)
     codes = result.status.astype(int)
     t = result.t.astype(np.float64)
     ends = origins + np.where(np.isfinite(t), t, length)[:, None] * directions
     counts = {s: int(np.sum(codes == i)) for i, s in enumerate(STATUSES)}
-    return (origins, ends, np.array(STATUSES)[codes], fan_lines(side)), counts
+    stats = traced_scene.intersect(origins, directions, count=True).stats
+    work = {c: int(stats[c]) for c in PROBE_COUNTERS}
+    return (origins, ends, np.array(STATUSES)[codes], fan_lines(side)), counts, work
 
 
 def _drawing(story, origin, direction, length):
