@@ -87,7 +87,7 @@ def test_the_probe_says_what_the_tutorial_says(path, structure):
     sentence's words after the status are the text's words."""
     words = probe.BOX_WORDS if structure == "aabb" else probe.STATUS_WORDS
     text = read(path)
-    named = re.findall(r"- \*\*([^*]+)\*\*(?: \(\w+\))?: (.+?)(?= - \*\*|$)", text)
+    named = re.findall(r"- \*\*([^*]+)\*\*(?: \([^)]+\))?: (.+?)(?= - \*\*|$)", text)
     assert len(named) >= 3, named
     root = properties.api.STRUCTURE_INFO[structure]["root_name"]
     for status, meaning in named:

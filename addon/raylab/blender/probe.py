@@ -56,11 +56,12 @@ STATUS_WORDS = {
     "missed_triangles": "missed_triangles: it crosses boxes with triangles, tests them, and hits none",
     "hit_object": "hit_object: it hits a triangle",
 }
+# The AABB's three cases, opening with the status as every structure's do (AABB 2 names the cases after them).
 BOX_WORDS = {
-    "missed_root": "Ignored (missed_root): the ray misses the box",
-    "missed_nodes": "Box hit, object missed: the ray enters the box but passes the object",
-    "missed_triangles": "Box hit, object missed: the ray enters the box but passes the object",
-    "hit_object": "Object hit: the ray hits a triangle",
+    "missed_root": "missed_root: the ray misses the box, it is ignored",
+    "missed_nodes": "missed_nodes: the ray enters the box but passes the object",
+    "missed_triangles": "missed_triangles: the ray enters the box but passes the object",
+    "hit_object": "hit_object: the ray hits a triangle",
 }
 
 

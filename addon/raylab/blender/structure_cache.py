@@ -17,6 +17,7 @@ the probe tests that box.
 """
 import hashlib
 import itertools
+import re
 
 import bpy
 import numpy as np
@@ -110,6 +111,9 @@ class SceneModel:
     def __init__(self, settings_key, settings):
         structure = settings_key[0]
         self.settings_key = settings_key
+        # The panels' names of the settings a core message may name (its error says "max_depth").
+        self.labels = {name: settings.bl_rna.properties[name].name for name in build_settings.SETTINGS
+                       if name in settings.bl_rna.properties}
         self.scene = api.Scene(**build_settings.build_kwargs(settings))
         self.world = structure == WORLD_ALIGNED
         self.parts = {}       # geometry name -> _Part
@@ -256,7 +260,7 @@ class SceneModel:
         try:
             self.scene.commit()
         except (ValueError, RuntimeError) as error:  # e.g. BuildError over the memory budget
-            self.error = f"{self.settings_key[0]} not built: {error}"
+            self.error = f"{self.settings_key[0]} not built: {readable(str(error), self.labels)}"
             self.committed = False
             return
         stats["structure_builds"] += self.stale
@@ -266,6 +270,23 @@ class SceneModel:
         self.committed = True
         for name in self.parts:  # made here, not when a panel's draw first asks (structure_cache.cached)
             self.entry(name)
+
+
+def readable(message, labels):
+    """A core message in the panels' words: byte counts in KiB, MiB or GiB ("4294967296 bytes" is 4 GiB),
+    setting names as their labels (`labels`: {"max_depth": "Max depth"})."""
+    message = re.sub(r"\b(\d+) bytes\b", lambda m: _size(int(m.group(1))), message)
+    message = re.sub(r"\bbudget of (\d+)\b", lambda m: "budget of " + _size(int(m.group(1))), message)
+    for name, label in labels.items():
+        message = re.sub(rf"\b{name}\b", label, message)
+    return message
+
+
+def _size(count):
+    for power, unit in ((3, "GiB"), (2, "MiB"), (1, "KiB")):
+        if count >= 1024 ** power:
+            return f"{count / 1024 ** power:.3g} {unit}"
+    return f"{count:,} bytes"
 
 
 def matrix_of(obj):

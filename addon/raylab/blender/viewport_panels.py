@@ -135,7 +135,7 @@ def object_lines(context):
     if costs is None:
         return lines + [(f"Costliest objects: {why_not}", 'INFO')]
     ranked = [(name, share) for name, _, share in costs.ranked() if name in built]
-    sample = "" if costs.told == costs.rays else f" ({costs.told:,} of them told apart)"
+    sample = "" if costs.told == costs.rays else f" (shares from a sample of {costs.told:,} of them)"
     counted = api.COUNTER_INFO[cost_overlay.RANK_COUNTER]["label"].lower()
     lines.append((f"Costliest objects, by their share of the {counted} of {costs.rays:,} rays from the "
                   f"camera{sample}:", 'SORTSIZE'))
@@ -153,7 +153,7 @@ def share_text(share):
 
 def structure_text(entry):
     s = entry.structure
-    return (f"{entry.box_count:,} boxes, {s.memory_bytes / 1024:.0f} KiB, "
+    return (f"{entry.box_count:,} {'box' if entry.box_count == 1 else 'boxes'}, {s.memory_bytes / 1024:.0f} KiB, "
             f"built in {s.build_seconds * 1000:.1f} ms")
 
 
