@@ -187,3 +187,30 @@ def test_the_octree_has_a_tree_without_an_sah_the_grid_its_cells_and_the_aabb_no
     assert walk('CHILD') == {'CANCELLED'}
     obj, why = tree_view.known_tree(bpy.context)
     assert obj is None and "no tree" in why
+
+
+@pytest.mark.parametrize("region", [(1270, 820), (950, 640)], ids=["1600x900", "1280x720"])
+def test_the_split_explorer_has_labelled_axes_a_legend_and_its_unit(why_sah, region):
+    """Issue 42 item 5: the explorer's chart says its unit, the costs at the bottom and top of its axis,
+    where across the box a split lies, and which colour is which, every label inside the frame and none
+    over another (a character of the 12 px font taken as TEXT_WIDTH wide)."""
+    obj, entry = tree_view.target(bpy.context)
+    tree = the_tree(why_sah)
+    splits = tree.splits(0, entry.structure)
+    _, chart = tree_view.frames(type("Region", (), dict(width=region[0], height=region[1]))())
+    plot, (low, high), costs, leaf, labels = tree_view.chart_layout(chart, splits)
+    finite = np.concatenate([c[np.isfinite(c)] for c in costs] + [[leaf]])
+    assert (low, high) == (finite.min(), finite.max())
+    assert leaf == sah_cost.leaf_tests(int(tree.triangle_count[0]))
+    texts = {text: colour for _, _, text, colour in labels}
+    assert any("triangle tests" in text for text in texts)
+    assert f"{low:.4g}" in texts and f"{high:.4g}" in texts and "0%" in texts and "100% across" in texts
+    assert [texts["x"], texts["y"], texts["z"], texts["leaf"]] == [*tree_view.AXIS_COLOURS, tree_view.LEAF_LINE]
+    assert f"chosen: {'xyz'[splits['axis']]}" in texts
+    x0, y0, w, h = chart
+    boxes = [(x, y, x + tree_view.TEXT_WIDTH * len(text), y + 12) for x, y, text, _ in labels]
+    for box in boxes:
+        assert x0 <= box[0] and box[2] <= x0 + w and y0 <= box[1] and box[3] <= y0 + h, (box, chart)
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1], (a, b)

@@ -384,18 +384,47 @@ def _draw_tree_view():
             _draw_chart(chart_frame, splits)
 
 
+CHART_LEFT = 48     # pixels left of the plot for the cost axis's numbers
+CHART_BOTTOM = 18   # pixels under the plot for the position axis's labels
+CHART_TOP = 40      # pixels over the plot: the title row and the legend row
+TEXT_WIDTH = 7.0    # pixels a character of the chart's 12 px font takes, at most (the tests' estimate)
+WHITE = (1.0, 1.0, 1.0, 1.0)
+
+
+def chart_layout(frame, splits):
+    """Where the Split Explorer draws (no bpy, so the tests read it): the plot (x, y, width, height), its
+    cost range (low, high) in triangle tests, and its labels [(x, y, text, rgba)]: the title with the unit,
+    a legend (x, y, z in their colours, the leaf's line, the chosen axis), the cost axis's lowest and
+    highest values, the position axis from 0% to 100% across the node's box."""
+    x0, y0, w, h = frame
+    costs = [sah_cost.in_tests(np.asarray(c, dtype=np.float64)) for c in splits["costs"]]
+    leaf = sah_cost.in_tests(splits["leaf_cost"])
+    finite = np.concatenate([c[np.isfinite(c)] for c in costs] + [np.array([leaf])])
+    low, high = float(finite.min()), float(finite.max())
+    plot = (x0 + CHART_LEFT, y0 + CHART_BOTTOM, w - CHART_LEFT - 8, h - CHART_BOTTOM - CHART_TOP)
+    axis = splits["axis"]
+    labels = [(x0 + 8, y0 + h - 18, f"SAH cost in {sah_cost.UNIT}", WHITE)]
+    x = x0 + 8
+    legend = [("x", AXIS_COLOURS[0]), ("y", AXIS_COLOURS[1]), ("z", AXIS_COLOURS[2]), ("leaf", LEAF_LINE),
+              (f"chosen: {'xyz'[axis] if axis >= 0 else 'none'}", AXIS_COLOURS[axis] if axis >= 0 else WHITE)]
+    for text, colour in legend:
+        labels.append((x, y0 + h - 34, text, colour))
+        x += TEXT_WIDTH * (len(text) + 2)
+    labels += [(x0 + 4, plot[1] - 4, f"{low:.4g}", WHITE), (x0 + 4, plot[1] + plot[3] - 8, f"{high:.4g}", WHITE),
+               (plot[0], y0 + 4, "0%", WHITE),
+               (plot[0] + plot[2] - TEXT_WIDTH * len("100% across"), y0 + 4, "100% across", WHITE)]
+    return plot, (low, high), costs, leaf, labels
+
+
 def _draw_chart(frame, splits):
     """Cost against split position (0 to 1 across the node's box) on each axis, the chosen split marked
-    and the leaf cost as a grey line."""
-    x0, y0, w, h = frame
-    top = 22
-    costs = [np.asarray(c, dtype=np.float64) for c in splits["costs"]]
-    finite = np.concatenate([c[np.isfinite(c)] for c in costs] + [np.array([splits["leaf_cost"]])])
-    low, high = float(finite.min()), float(finite.max())
+    and the leaf cost as a grey line, with the labels of chart_layout."""
+    (px0, py0, pw, ph), (low, high), costs, leaf, labels = chart_layout(frame, splits)
     span = high - low if high > low else 1.0
 
     def to_pixel(position, cost):
-        return x0 + 8 + position * (w - 16), y0 + 8 + (cost - low) / span * (h - top - 16)
+        return px0 + position * pw, py0 + (cost - low) / span * ph
+    _lines(np.array([[px0, py0], [px0, py0 + ph], [px0, py0], [px0 + pw, py0]]), LEAF_LINE)  # the axes
     for axis in range(3):
         positions = splits["across"][axis]
         ok = np.isfinite(costs[axis])
@@ -403,16 +432,16 @@ def _draw_chart(frame, splits):
             px, py = to_pixel(positions[ok], costs[axis][ok])
             points = np.stack([px, py], 1)
             _lines(np.stack([points[:-1], points[1:]], 1).reshape(-1, 2), AXIS_COLOURS[axis])
-    lx0, ly = to_pixel(0.0, splits["leaf_cost"])
-    lx1, _ = to_pixel(1.0, splits["leaf_cost"])
+    lx0, ly = to_pixel(0.0, leaf)
+    lx1, _ = to_pixel(1.0, leaf)
     _lines(np.array([[lx0, ly], [lx1, ly]]), LEAF_LINE)
-    axis, position, cost = splits["axis"], splits["across_chosen"], splits["cost"]
+    axis, position = splits["axis"], splits["across_chosen"]
     if axis >= 0:
-        cx, cy = to_pixel(position, cost)
-        _lines(np.array([[cx, y0 + 8], [cx, y0 + h - top]]), AXIS_COLOURS[axis])
+        cx, cy = to_pixel(position, sah_cost.in_tests(splits["cost"]))
+        _lines(np.array([[cx, py0], [cx, py0 + ph]]), AXIS_COLOURS[axis])
         _outline(cx, cy, 5, PICKED)
-    label = "xyz"[axis] if axis >= 0 else "none"
-    _text(x0 + 8, y0 + h - 18, f"Split cost ({sah_cost.UNIT}) along x, y, z; chosen: {label}")
+    for x, y, text, colour in labels:
+        _text(x, y, text, colour)
 
 
 def _draw_frame(frame):
@@ -466,11 +495,11 @@ def _outline(x, y, size, colour):
     _batch_draw('LINES', square, colour, width=2.0)
 
 
-def _text(x, y, text):
+def _text(x, y, text, colour=WHITE):
     import blf
     font = 0
     blf.size(font, 12)
-    blf.color(font, 1.0, 1.0, 1.0, 1.0)
+    blf.color(font, *colour)
     blf.position(font, x, y, 0)
     blf.draw(font, text)
 
