@@ -214,3 +214,22 @@ def test_the_split_explorer_has_labelled_axes_a_legend_and_its_unit(why_sah, reg
     for i, a in enumerate(boxes):
         for b in boxes[i + 1:]:
             assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1], (a, b)
+
+
+def test_the_parent_arrow_keeps_the_picture_where_it_was(why_sah):
+    """Issue 42 item 5: a step up from a node on the picture's bottom row kept the pick in view but started
+    the picture from the root again (the whole tree, the node's neighbourhood gone): the picture keeps its
+    start while the pick stays in it."""
+    tree = the_tree(why_sah)
+    levels = 3
+    deep = int(np.flatnonzero(tree.depth == levels + 1)[0])
+    start = tree_view.shown_focus(tree, 0, deep, levels)
+    assert tree.depth[start] == 2  # the pick on the bottom row
+    parent = int(tree.parent[deep])
+    assert tree_view.shown_focus(tree, 0, parent, levels) == 0  # from nothing: the focus, the whole tree
+    assert tree_view.shown_focus(tree, 0, parent, levels, shown=start) == start
+    # a pick outside the picture still moves it; a start outside the focus is not kept
+    other = next(int(n) for n in np.flatnonzero(tree.depth == levels + 1)
+                 if tree_view.shown_focus(tree, 0, int(n), levels) != start)
+    assert tree_view.shown_focus(tree, 0, other, levels, shown=start) == tree_view.shown_focus(tree, 0, other, levels)
+    assert tree_view.shown_focus(tree, deep, deep, levels, shown=start) == deep

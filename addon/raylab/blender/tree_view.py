@@ -29,6 +29,7 @@ CHILD_COLOURS = ((0.3, 0.8, 1.0, 1.0), (1.0, 0.45, 0.75, 1.0))  # the chosen spl
 AXIS_COLOURS = ((1.0, 0.2, 0.2, 1.0), (0.4, 1.0, 0.4, 1.0), (0.25, 0.4, 1.0, 1.0))  # x, y, z
 LEAF_LINE = (0.6, 0.6, 0.6, 0.9)  # the chart's line at the cost of keeping the node a leaf
 MARGIN = 16      # pixels between the view's edge and the tree's frame
+FRAME = (0.05, 0.05, 0.06, 1.0)  # the frames' fill: opaque, so the boxes behind never show through the text
 NODE_SIZE = 9    # a node's square, in pixels, at most
 CLICK_RADIUS = 10
 TITLE_HEIGHT = 22  # the frame's title row above the tree
@@ -304,12 +305,17 @@ def frames(region):
     return tree, chart
 
 
-def shown_focus(tree, focus, picked, levels):
-    """The node the picture starts from: the focus, unless the picked node lies outside what it shows;
-    then the picked node's ancestor `levels - 1` above it, so that the pick is on the bottom row."""
+def shown_focus(tree, focus, picked, levels, shown=None):
+    """The node the picture starts from: `shown` (where the picture last started) while the picked node is
+    still in it and it lies under the focus, so that a step up (the parent arrow) keeps the picture;
+    else the focus, unless the picked node lies outside what it shows; then the picked node's ancestor
+    `levels - 1` above it, so that the pick is on the bottom row."""
     ancestors = [picked]
     while tree.parent[ancestors[-1]] >= 0:
         ancestors.append(int(tree.parent[ancestors[-1]]))
+    if shown is not None and shown in ancestors and ancestors.index(shown) <= levels and focus in ancestors \
+            and ancestors.index(focus) >= ancestors.index(shown):
+        return shown
     if focus in ancestors and ancestors.index(focus) <= levels:
         return focus
     return ancestors[min(levels - 1, len(ancestors) - 1)]
@@ -330,6 +336,7 @@ def node_colours(tree, nodes, mode):
 
 
 _shown = {}  # region pointer -> (tree frame, picture, node centres x, y), what a click is matched against
+_starts = {}  # region pointer -> (the Tree, the focus, the node its picture last started from): shown_focus's `shown`
 
 
 def _draw_tree_view():
@@ -350,7 +357,11 @@ def _draw_tree_view():
         _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, str(error))
         return
     picked_node, focus, _ = picked(context.scene, tree)
-    focus = shown_focus(tree, focus, picked_node, settings.levels)
+    last = _starts.get(region.as_pointer())  # kept while the tree and the focus (Focus, All) are
+    start = shown_focus(tree, focus, picked_node, settings.levels,
+                        last[2] if last is not None and last[:2] == (tree, focus) else None)
+    _starts[region.as_pointer()] = (tree, focus, start)
+    focus = start
     picture = tree.picture(focus, settings.levels)
     x0, y0, w, h = tree_frame
     xs, ys = tree_layout.positions(picture, w, h - TITLE_HEIGHT)
@@ -447,7 +458,7 @@ def _draw_chart(frame, splits):
 def _draw_frame(frame):
     x, y, w, h = frame
     corners = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y], [x + w, y + h], [x, y + h]], np.float32)
-    _triangles(corners, (0.05, 0.05, 0.06, 0.75))
+    _triangles(corners, FRAME)
 
 
 def _positions(points):
