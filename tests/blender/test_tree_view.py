@@ -233,3 +233,4 @@ def test_the_parent_arrow_keeps_the_picture_where_it_was(why_sah):
                  if tree_view.shown_focus(tree, 0, int(n), levels) != start)
     assert tree_view.shown_focus(tree, 0, other, levels, shown=start) == tree_view.shown_focus(tree, 0, other, levels)
     assert tree_view.shown_focus(tree, deep, deep, levels, shown=start) == deep
+

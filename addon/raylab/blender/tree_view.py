@@ -586,10 +586,12 @@ def walk(tree, node, step):
 
 
 class RAYLAB_OT_tree_walk(bpy.types.Operator):
-    """Pick the parent, a child, a sibling, the root or the costliest child of the picked node"""
+    """Pick the parent, a child, a sibling, the root or the child holding the costliest leaf of the picked node"""
     bl_idname = "raylab.tree_walk"
     bl_label = "Walk the Tree"
-    bl_options = {'REGISTER', 'UNDO'}
+    # Undo, but not registered: Blender's Adjust Last Operation panel, opened by a registered operator,
+    # covered the tree view's bottom row at the viewport's bottom left.
+    bl_options = {'UNDO'}
 
     step: EnumProperty(items=[(s, s.title(), STEPS[s]) for s in STEPS], default='PARENT',
                        description="Where to go from the picked node")
@@ -624,7 +626,7 @@ class RAYLAB_OT_tree_click(bpy.types.Operator):
     """Pick the tree view's node under the mouse (clicks elsewhere reach the viewport as usual)"""
     bl_idname = "raylab.tree_click"
     bl_label = "Pick a Node"
-    bl_options = {'REGISTER', 'UNDO'}
+    bl_options = {'UNDO'}  # as tree_walk: no Adjust Last Operation panel over the tree
 
     @classmethod
     def poll(cls, context):
