@@ -234,3 +234,16 @@ def test_the_parent_arrow_keeps_the_picture_where_it_was(why_sah):
     assert tree_view.shown_focus(tree, 0, other, levels, shown=start) == tree_view.shown_focus(tree, 0, other, levels)
     assert tree_view.shown_focus(tree, deep, deep, levels, shown=start) == deep
 
+
+def test_the_level_s_tasks_panel_shows_the_picked_node_while_the_tree_view_is_on(why_sah):
+    """Issue 42 item 5: the Tree panel sits closed at the sidebar's bottom; in Why SAH? the Tasks panel,
+    where the student is, draws the picked node, its buttons and its split once the tree view is on."""
+    from raylab.blender import level_panels
+    assert tree_view.tasks_section in level_panels.TASK_SECTIONS
+    why_sah.raylab_tree.enabled = False
+    assert not tree_view.shows_in_tasks(bpy.context)
+    why_sah.raylab_tree.enabled = True
+    assert tree_view.shows_in_tasks(bpy.context)
+    other = levels.open_level(bpy.context, "bvh_2")  # a level that does not teach the tree
+    other.raylab_tree.enabled = True
+    assert not tree_view.shows_in_tasks(bpy.context)

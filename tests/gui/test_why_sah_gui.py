@@ -14,9 +14,11 @@ TEXT_HEIGHT = 12
 
 
 @pytest.fixture(scope="module")
-def why_sah_shot():
-    report = gui_util.run_session("why_sah_shot.py", "why_sah.json", None, outputs=("why_sah_tree.png",),
-                                  extra=("--enable-event-simulate",))
+def why_sah_shot(tmp_path_factory):
+    # A saved file, not factory startup's splash screen: that took the click on the raylab tab.
+    report = gui_util.run_session("why_sah_shot.py", "why_sah.json",
+                                  gui_util.start_blend(tmp_path_factory.mktemp("why_sah")),
+                                  outputs=("why_sah_tree.png",), extra=("--enable-event-simulate",))
     image = gui_util.load_rgb(os.path.join(gui_util.OUT, "why_sah_tree.png"))
     region = gui_util.Region(report["region"], image.shape[0])
     return report, region, region.crop(image)
@@ -42,3 +44,12 @@ def test_the_chart_s_plot_holds_the_three_axes_curves(why_sah_shot):
     for colour in ((1.0, 0.2, 0.2), (0.4, 1.0, 0.4), (0.25, 0.4, 1.0)):
         assert gui_util.color_mask(plot, colour, tolerance=0.25).sum() > 30, colour
     assert np.isfinite(plot).all()
+
+
+def test_the_tasks_panel_shows_the_picked_node(why_sah_shot):
+    """Issue 42 item 5: the Tree panel is closed at the sidebar's bottom; the Tasks panel, open beside the
+    level's tasks, draws the picked node's lines in the unit of the SAH cost."""
+    report, _, _ = why_sah_shot
+    lines = report["panel_lines"]
+    assert any(line.startswith(f"Node {report['node']}: depth") for line in lines), lines
+    assert "SAH cost here and below" in " ".join(lines), lines

@@ -17,7 +17,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import session  # noqa: E402  (puts the checkout's add-on on sys.path)
 import raylab  # noqa: E402
 from blender_window import call_in_main_window, click_raylab_tab, screenshot, show_sidebar, view3d  # noqa: E402
-from raylab.blender import tree_view  # noqa: E402
+from raylab.blender import text_fit, tree_view  # noqa: E402
 
 OUT = session.out_dir()
 report = {}
@@ -27,11 +27,15 @@ seen = {}
 
 def set_up():
     raylab.register()
+    text_fit.RECORD = []  # every panel line drawn: the Tasks panel's picked node among them
 
 
 def open_level():
     assert call_in_main_window(bpy.ops.raylab.level_open, level_id="why_sah") == {'FINISHED'}
-    show_sidebar()
+
+
+def sidebar():
+    show_sidebar()  # once the window has drawn the level's scene
 
 
 def tree_on():
@@ -76,6 +80,7 @@ def raylab_tab():
 
 def shot():
     screenshot(os.path.join(OUT, "why_sah_tree.png"))
+    report["panel_lines"] = list(dict.fromkeys(line for line, _, _ in text_fit.RECORD))
 
 
-SESSION.run([open_level, raylab_tab, tree_on, tree_drawn, picked_drawn, shot], set_up, watchdog_seconds=120)
+SESSION.run([open_level, sidebar, raylab_tab, tree_on, tree_drawn, picked_drawn, shot], set_up, watchdog_seconds=120)

@@ -32,6 +32,8 @@ MISSED_BOX_COLOR = (1.0, 0.3, 0.25, 0.55)
 ENTRY_COLOR = (1.0, 1.0, 1.0, 1.0)
 HIT_COLOR = (1.0, 0.15, 0.55, 1.0)
 TEXT_COLOR = (0.92, 0.92, 0.92, 1.0)
+BACKDROP_COLOR = (0.0, 0.0, 0.0, 0.8)  # behind the status text: it stays readable over yellow boxes
+LINE_SPACING = 1.5  # the status text's baselines, in font sizes
 FAN_OBJECT_HALF_ANGLE = math.radians(20.0)  # the ray object's fan: a 40° pyramid around its +Z axis
 # A fan with more rays than this draws lines for an even sample of them, and a dot where every ray
 # ends (a density that stays readable): a 64×64 fan of lines would cover the whole view.
@@ -326,6 +328,17 @@ def _draw_boxes(lo, hi, color, model, xray, width):
     draw.draw_batch(batch, model, xray, draw.THICK, width)
 
 
+drawn_backdrops = {}  # region pointer -> the status text's backdrop last drawn there (what the GUI tests read)
+
+
+def text_backdrop(left, baseline, size, widths, scale=1.0):
+    """The rectangle (x0, y0, x1, y1) in region pixels behind the status text's lines: the first baseline
+    at `baseline`, each next LINE_SPACING font `size`s lower, `widths` their widths in pixels."""
+    pad = 6 * scale
+    bottom = baseline - (len(widths) - 1) * LINE_SPACING * size - 0.4 * size
+    return left - pad, bottom - pad, left + max(widths, default=0) + pad, baseline + size + pad
+
+
 def _draw_text():
     import blf
     context = bpy.context
@@ -344,14 +357,29 @@ def _draw_text():
     y = region.height - covered - 80 * scale
     font = 0
     blf.size(font, size)
+    if result.text:
+        backdrop = text_backdrop(left, y, size, [blf.dimensions(font, line)[0] for line in result.text], scale)
+        _draw_backdrop(backdrop)
+        drawn_backdrops[region.as_pointer()] = backdrop
     blf.enable(font, blf.SHADOW)
     blf.shadow(font, 3, 0.0, 0.0, 0.0, 0.9)
     for i, line in enumerate(result.text):
         color = STATUS_COLORS.get(result.public["status"], TEXT_COLOR) if i == 0 else TEXT_COLOR
         blf.color(font, *color)
-        blf.position(font, left, y - i * size * 1.5, 0)
+        blf.position(font, left, y - i * size * LINE_SPACING, 0)
         blf.draw(font, line)
     blf.disable(font, blf.SHADOW)
+
+
+def _draw_backdrop(rect):
+    import gpu
+    x0, y0, x1, y1 = rect
+    positions = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], np.float32)
+    colors = np.tile(np.asarray(BACKDROP_COLOR, np.float32), (4, 1))
+    batch = draw.make_batch('TRIS', positions, colors, np.array([[0, 1, 2], [0, 2, 3]], np.uint32))
+    gpu.state.blend_set('ALPHA')
+    batch.draw(gpu.shader.from_builtin(draw.THIN))
+    gpu.state.blend_set('NONE')
 
 
 # --- the ray object and its operator ----------------------------------------------------------------------

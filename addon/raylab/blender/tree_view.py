@@ -14,7 +14,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 
 from .. import api, sah_cost, tree_layout
-from . import draw, overlay, structure_cache, text_fit, viewport_panels
+from . import draw, level_panels, overlay, structure_cache, text_fit, viewport_panels
 
 COLOURS = (
     ("DEPTH", "Depth", "Each node in the colour of its depth, as the overlay draws its box"),
@@ -716,30 +716,36 @@ class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
         column.prop(settings, "colour")
         column.prop(settings, "levels")
         layout.prop(settings, "explorer")
-        obj, tree = known_tree(context)
-        if obj is None:
-            text_fit.label(layout, context, tree, 'INFO')
-            return
-        node, _, reset = picked(context.scene, tree)
-        box = layout.box()
-        for text, icon in node_lines(tree, node, reset):
-            text_fit.label(box, context, text, icon, boxes=1)
-        row = layout.row(align=True)
-        for step, icon in (('PARENT', 'TRIA_UP'), ('PREVIOUS', 'TRIA_LEFT'), ('NEXT', 'TRIA_RIGHT'),
-                           ('CHILD', 'TRIA_DOWN')):
-            row.operator(RAYLAB_OT_tree_walk.bl_idname, text="", icon=icon).step = step
-        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Costliest").step = 'COSTLIEST'
-        row = layout.row(align=True)
-        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Root").step = 'ROOT'
-        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Focus").step = 'FOCUS'
-        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="All").step = 'UNFOCUS'
-        splits = tree.known_splits(node)
-        if splits is not None and splits["axis"] >= 0:
-            method = api.SPLIT_METHOD_INFO[splits["method"]]["description"]
-            text_fit.label(layout, context, f"Split along {'xyz'[splits['axis']]}, {splits['across_chosen']:.0%} "
-                                            f"across the box: {method}. Per ray into this node the split costs "
-                                            f"{sah_cost.in_tests(splits['cost']):.4g} {sah_cost.UNIT}, a leaf "
-                                            f"{sah_cost.in_tests(splits['leaf_cost']):.4g}", 'MOD_EDGESPLIT')
+        draw_picked_node(layout, context)
+
+
+def draw_picked_node(layout, context):
+    """The picked node's lines, the walk buttons and its split: the Tree panel's, and the level's Tasks
+    panel's while the level asks for the tree view (tasks_section)."""
+    obj, tree = known_tree(context)
+    if obj is None:
+        text_fit.label(layout, context, tree, 'INFO')
+        return
+    node, _, reset = picked(context.scene, tree)
+    box = layout.box()
+    for text, icon in node_lines(tree, node, reset):
+        text_fit.label(box, context, text, icon, boxes=1)
+    row = layout.row(align=True)
+    for step, icon in (('PARENT', 'TRIA_UP'), ('PREVIOUS', 'TRIA_LEFT'), ('NEXT', 'TRIA_RIGHT'),
+                       ('CHILD', 'TRIA_DOWN')):
+        row.operator(RAYLAB_OT_tree_walk.bl_idname, text="", icon=icon).step = step
+    row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Costliest").step = 'COSTLIEST'
+    row = layout.row(align=True)
+    row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Root").step = 'ROOT'
+    row.operator(RAYLAB_OT_tree_walk.bl_idname, text="Focus").step = 'FOCUS'
+    row.operator(RAYLAB_OT_tree_walk.bl_idname, text="All").step = 'UNFOCUS'
+    splits = tree.known_splits(node)
+    if splits is not None and splits["axis"] >= 0:
+        method = api.SPLIT_METHOD_INFO[splits["method"]]["description"]
+        text_fit.label(layout, context, f"Split along {'xyz'[splits['axis']]}, {splits['across_chosen']:.0%} "
+                                        f"across the box: {method}. Per ray into this node the split costs "
+                                        f"{sah_cost.in_tests(splits['cost']):.4g} {sah_cost.UNIT}, a leaf "
+                                        f"{sah_cost.in_tests(splits['leaf_cost']):.4g}", 'MOD_EDGESPLIT')
 
 
 CLASSES = (TreeSettings, RAYLAB_OT_tree_walk, RAYLAB_OT_tree_click, RAYLAB_OT_tree_key, RAYLAB_PT_tree)
@@ -747,10 +753,25 @@ _handles = []
 _keymaps = []
 
 
+def shows_in_tasks(context):
+    """Whether the open level's Tasks panel draws the picked node: the level puts the tree view among its
+    controls and it is on (the Tree panel sits closed at the sidebar's bottom)."""
+    level = level_panels.current_level(context)
+    return (level is not None and "raylab_tree.enabled" in level.controls
+            and context.scene.raylab_tree.enabled)
+
+
+def tasks_section(layout, context):
+    """A level_panels.TASK_SECTIONS hook: the picked node where the level's tasks are."""
+    if shows_in_tasks(context):
+        draw_picked_node(layout, context)
+
+
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     bpy.types.Scene.raylab_tree = PointerProperty(type=TreeSettings)
+    level_panels.TASK_SECTIONS.append(tasks_section)
     overlay.DIMMERS.append(dimming)
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_picked_boxes, (), 'WINDOW', 'POST_VIEW'))
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_tree_view, (), 'WINDOW', 'POST_PIXEL'))
@@ -769,6 +790,8 @@ def register():
 
 
 def unregister():
+    if tasks_section in level_panels.TASK_SECTIONS:
+        level_panels.TASK_SECTIONS.remove(tasks_section)
     for keymap, item in _keymaps:
         keymap.keymap_items.remove(item)
     _keymaps.clear()
