@@ -483,3 +483,14 @@ def test_where_work_goes_rod_task_ticks_once_the_rod_and_its_boxes_leave_the_goa
     # The last one, rendered: the task ticks.
     assert render() == goat_alone
     assert timer_tick(scene) == [True, True, True]
+
+
+def test_a_level_that_asks_to_read_the_render_shows_it_under_its_tasks():
+    """Issue 42 item 6: AABB 2 says "render and read Rays ignored"; the number was at the bottom of the
+    sidebar and the render window's header was cut. The Tasks panel of a level whose task waits for a render
+    draws the last render's numbers (viewport_panels.last_render_in_tasks); other levels' do not."""
+    from raylab.blender import level_panels, viewport_panels
+    assert viewport_panels.last_render_in_tasks in level_panels.TASK_SECTIONS
+    asking = [level.id for level in levels.available_levels()[0] if viewport_panels.reads_last_render(level)]
+    assert "aabb_2" in asking and "why_sah" not in asking
+    assert not viewport_panels.reads_last_render(None)

@@ -46,7 +46,7 @@ WATCHDOG_SECONDS = 240
 ROD_MOVE = 2.0       # metres, as the rod task says
 
 import raylab  # noqa: E402
-from raylab.blender import compare, heat_maps, levels, probe, structure_cache, tree_view  # noqa: E402
+from raylab.blender import compare, heat_maps, levels, probe, structure_cache, text_fit, tree_view  # noqa: E402
 
 
 # --- what the student sees and does -------------------------------------------------------------------
@@ -207,8 +207,12 @@ def aabb_2_goat(run):
     yield from step(run, "the ray dragged into the box beside the goat", 2, status=status_of(scene))
     aim_ray(scene, ["hit_object"])
     yield from step(run, "the ray dragged onto the goat", 3, status=status_of(scene))
+    text_fit.RECORD = []  # the panels' lines from now on: the Tasks panel shows the render's numbers
     yield from render_f12()
     yield from step(run, "F12", 4, rays_ignored=scene["raylab_last_render"].to_dict().get("rays_ignored"))
+    run["render_under_tasks"] = yield from wait_until(
+        lambda: any(line == "Last render (F12):" for line, _, _ in text_fit.RECORD), TICK_WAIT)
+    text_fit.RECORD = None
 
 
 def aabb_2_ray(run):

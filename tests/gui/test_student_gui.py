@@ -137,6 +137,7 @@ def test_what_the_tasks_ask_the_student_to_read_is_there(runs):
     tested: a few of the bunny's, not all."""
     (goat,) = [run for run in runs_of(runs, "aabb_2") if run["way"] == "goat"]
     assert goat["steps"][-1]["rays_ignored"] > 0
+    assert goat["render_under_tasks"], "the Tasks panel never drew the last render's numbers"  # issue 42, 6
     (octree_2,) = runs_of(runs, "octree_2")
     hit = octree_2["steps"][-1]
     assert hit["status"] == "hit_object" and 0 < hit["triangle_tests"] < hit["triangle_total"] / 10

@@ -9,7 +9,7 @@ many more.
 import bpy
 
 from .. import api
-from . import build_settings, cost_overlay, overlay, probe, render_stats, structure_cache, text_fit
+from . import build_settings, cost_overlay, level_panels, overlay, probe, render_stats, structure_cache, text_fit
 
 TOP_OBJECTS = 5      # objects listed by name in the ranking
 KEY_SWATCH = 16      # pixels of a depth colour's icon
@@ -236,6 +236,22 @@ class RAYLAB_PT_last_render(SidebarPanel, bpy.types.Panel):
         render_stats.draw_last(self.layout, context)
 
 
+def reads_last_render(level):
+    """Whether a level's tasks ask for a render's numbers (a task done when the last render exists)."""
+    return level is not None and any(task.condition.get("id_property") == render_stats.LAST_RENDER
+                                     for task in level.tasks)
+
+
+def last_render_in_tasks(layout, context):
+    """A level_panels.TASK_SECTIONS hook: where a task says "render and read Rays ignored", the last render's
+    numbers under the tasks (the Last render panel sits at the sidebar's bottom, the render window's header
+    is cut at a level's small resolution)."""
+    if reads_last_render(level_panels.current_level(context)) and render_stats.LAST_RENDER in context.scene:
+        box = layout.box()
+        text_fit.label(box, context, "Last render (F12):", 'RENDER_RESULT', boxes=1)
+        render_stats.draw(box, context, context.scene[render_stats.LAST_RENDER])
+
+
 CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_cost, RAYLAB_PT_last_render)
 
 
@@ -244,9 +260,12 @@ _register, _unregister = bpy.utils.register_classes_factory(CLASSES)
 
 def register():
     _register()
+    level_panels.TASK_SECTIONS.append(last_render_in_tasks)
 
 
 def unregister():
+    if last_render_in_tasks in level_panels.TASK_SECTIONS:
+        level_panels.TASK_SECTIONS.remove(last_render_in_tasks)
     _unregister()
     if _icons:
         import bpy.utils.previews
