@@ -247,3 +247,17 @@ def test_the_level_s_tasks_panel_shows_the_picked_node_while_the_tree_view_is_on
     other = levels.open_level(bpy.context, "bvh_2")  # a level that does not teach the tree
     other.raylab_tree.enabled = True
     assert not tree_view.shows_in_tasks(bpy.context)
+
+
+def test_picking_the_dragon_s_root_draws_a_bounded_shallowest_subtree():
+    """Issue 42 item 5: picking the dragon's root took a 4.6 s viewport draw (a Python walk of a million nodes,
+    their boxes made again every draw). The subtree is listed by levels with numpy, at most SUBTREE_BOXES of its
+    boxes are drawn, the shallowest, and their batch is made once per pick (subtree_batch)."""
+    path = os.path.join(ROOT, "addon", "raylab", "meshes", "dragon.obj")
+    tree = tree_view.Tree(("dragon",), raylab.build_file(path, structure="bvh"))
+    nodes = tree_view.drawn_subtree(tree, 0)
+    assert len(tree) - 1 > tree_view.SUBTREE_BOXES == len(nodes) and 0 not in nodes
+    rest = np.setdiff1d(np.arange(1, len(tree)), nodes)
+    assert tree.depth[nodes].max() <= tree.depth[rest].min()  # the shallowest drawn, the deepest left out
+    leaf = int(np.flatnonzero(np.bincount(tree.parent[1:], minlength=len(tree)) == 0)[0])
+    assert len(tree_view.drawn_subtree(tree, leaf)) == 0

@@ -107,15 +107,10 @@ class Tree:
         return int(min(max(index, 0), len(self) - 1))
 
     def subtree(self, node):
-        """The node and every node below it (the last asked kept: the view draws it every frame)."""
-        if self._subtree[0] == node:
-            return self._subtree[1]
-        found, todo = [], [node]
-        while todo:
-            n = todo.pop()
-            found.append(n)
-            todo.extend(self.children(n).tolist())
-        self._subtree = (node, np.asarray(found, dtype=np.int64))
+        """The node and every node below it, shallowest first (the last asked kept: the view draws it every
+        frame)."""
+        if self._subtree[0] != node:
+            self._subtree = (node, self.children.below(node))
         return self._subtree[1]
 
     def costliest_child(self, node):
@@ -532,14 +527,38 @@ def _draw_picked_boxes():
     picked_node = picked(context.scene, tree)[0]
     xray = context.scene.raylab.xray
     matrix = entry.model_matrix(obj)
-    subtree = tree.subtree(picked_node)[1:]
-    if len(subtree):
-        _draw_boxes(tree.lo[subtree], tree.hi[subtree], SUBTREE, matrix, xray)
+    batch = subtree_batch(tree, picked_node)
+    if batch is not None:
+        draw.draw_batch(batch, matrix, xray)
     splits = tree.splits(picked_node, entry.structure) if settings.explorer else None
     if splits is not None and splits["axis"] >= 0:
         for (lo, hi), colour in zip(splits["child_boxes"], CHILD_COLOURS):
             _draw_boxes(np.asarray([lo]), np.asarray([hi]), colour, matrix, xray, width=2.0)
     _draw_boxes(tree.lo[[picked_node]], tree.hi[[picked_node]], PICKED, matrix, xray, width=3.0)
+
+
+SUBTREE_BOXES = 20000  # at most this many of the picked node's subtree boxes drawn: the shallowest
+_subtree_batch = [None, None]  # (the tree's key and shape, the node), its GPU batch: made once per pick
+
+
+def drawn_subtree(tree, node, budget=SUBTREE_BOXES):
+    """The picked node's subtree boxes drawn in gold: all of them, or the `budget` shallowest (the dragon's
+    root has a million: the overlay draws them all already)."""
+    return tree.subtree(node)[1:budget + 1]  # subtree() lists the shallowest first
+
+
+def subtree_batch(tree, node):
+    """The GPU batch of drawn_subtree in object space, made again only when the tree or the pick changed."""
+    key = (tree.key, tree.shape, node)
+    if _subtree_batch[0] != key:
+        nodes = drawn_subtree(tree, node)
+        batch = None
+        if len(nodes):
+            corners, indices = draw.box_wireframe(tree.lo[nodes].astype(np.float32), tree.hi[nodes].astype(np.float32))
+            batch = draw.make_batch('LINES', corners, np.tile(np.asarray(SUBTREE, np.float32), (len(corners), 1)),
+                                    indices)
+        _subtree_batch[:] = [key, batch]
+    return _subtree_batch[1]
 
 
 def _draw_boxes(lo, hi, colour, matrix, xray, width=1.0):
