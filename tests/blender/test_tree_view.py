@@ -261,3 +261,16 @@ def test_picking_the_dragon_s_root_draws_a_bounded_shallowest_subtree():
     assert tree.depth[nodes].max() <= tree.depth[rest].min()  # the shallowest drawn, the deepest left out
     leaf = int(np.flatnonzero(np.bincount(tree.parent[1:], minlength=len(tree)) == 0)[0])
     assert len(tree_view.drawn_subtree(tree, leaf)) == 0
+
+
+def test_levels_the_frame_cannot_hold_are_left_out_not_drawn_as_a_band():
+    """Issue 42 item 5: Levels 5 on the armadillo drew rows 3 to 5 as one solid grey band (thousands of places
+    in a 600 px frame). The picture shows the most levels that leave every place MIN_PLACE pixels, and says so."""
+    path = os.path.join(ROOT, "addon", "raylab", "meshes", "armadillo.obj")
+    tree = tree_view.Tree(("armadillo",), raylab.build_file(path, structure="bvh"))
+    width = 600
+    assert tree.picture(0, 5)["places"] * tree_view.MIN_PLACE > width  # what was drawn: a band
+    fit = tree.fitting_levels(0, 5, width)
+    assert 1 <= fit < 5 and tree.picture(0, fit)["places"] * tree_view.MIN_PLACE <= width
+    assert tree.picture(0, fit + 1)["places"] * tree_view.MIN_PLACE > width  # the most that fit
+    assert tree.fitting_levels(0, 2, width) == 2  # levels that fit are kept

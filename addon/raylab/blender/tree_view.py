@@ -29,6 +29,7 @@ CHILD_COLOURS = ((0.3, 0.8, 1.0, 1.0), (1.0, 0.45, 0.75, 1.0))  # the chosen spl
 AXIS_COLOURS = ((1.0, 0.2, 0.2, 1.0), (0.4, 1.0, 0.4, 1.0), (0.25, 0.4, 1.0, 1.0))  # x, y, z
 LEAF_LINE = (0.6, 0.6, 0.6, 0.9)  # the chart's line at the cost of keeping the node a leaf
 MARGIN = 16      # pixels between the view's edge and the tree's frame
+MIN_PLACE = 4    # pixels a place across the tree's picture needs at least (a node's smallest square)
 FRAME = (0.05, 0.05, 0.06, 1.0)  # the frames' fill: opaque, so the boxes behind never show through the text
 NODE_SIZE = 9    # a node's square, in pixels, at most
 CLICK_RADIUS = 10
@@ -124,8 +125,17 @@ class Tree:
     def picture(self, focus, levels):
         key = (focus, levels)
         if key not in self._pictures:
-            self._pictures = {key: tree_layout.layout(self.children, focus, levels)}
+            if len(self._pictures) >= 8:
+                self._pictures.clear()
+            self._pictures[key] = tree_layout.layout(self.children, focus, levels)
         return self._pictures[key]
+
+    def fitting_levels(self, focus, levels, width):
+        """The most levels, up to `levels`, whose picture from `focus` gives each place across at least
+        MIN_PLACE pixels of `width` (Levels 5 on the armadillo drew rows 3 to 5 as one grey band)."""
+        while levels > 1 and self.picture(focus, levels)["places"] * MIN_PLACE > width:
+            levels -= 1
+        return levels
 
     def splits(self, node, structure):
         """Structure.split_costs(node) for an inner BVH node, else None; with what the view draws: each
@@ -355,10 +365,14 @@ def _draw_tree_view():
     last = _starts.get(region.as_pointer())  # kept while the tree and the focus (Focus, All) are
     start = shown_focus(tree, focus, picked_node, settings.levels,
                         last[2] if last is not None and last[:2] == (tree, focus) else None)
+    x0, y0, w, h = tree_frame
+    levels = tree.fitting_levels(start, settings.levels, w)
+    if levels < settings.levels:  # fewer levels: the pick stays on the picture's bottom row at most
+        start = shown_focus(tree, focus, picked_node, levels)
+        levels = tree.fitting_levels(start, levels, w)
     _starts[region.as_pointer()] = (tree, focus, start)
     focus = start
-    picture = tree.picture(focus, settings.levels)
-    x0, y0, w, h = tree_frame
+    picture = tree.picture(focus, levels)
     xs, ys = tree_layout.positions(picture, w, h - TITLE_HEIGHT)
     xs, ys = xs + x0, ys + y0
     _shown[region.as_pointer()] = (tree_frame, picture, xs, ys)
@@ -380,8 +394,9 @@ def _draw_tree_view():
     if len(where):
         i = where[0]
         _outline(xs[i], ys[i], size + 3, PICKED)
+    fewer = f", {levels} of {settings.levels} levels (more would not fit: Focus)" if levels < settings.levels else ""
     title = (f"{api.STRUCTURE_INFO[tree.kind]['label']} of {obj.name}: {len(tree):,} nodes; "
-             f"showing {len(nodes):,} below node {focus}. Click a node.")
+             f"showing {len(nodes):,} below node {focus}{fewer}. Click a node.")
     _text(x0 + 8, y0 + h - 18, title)
     if settings.explorer:
         splits = tree.splits(picked_node, entry.structure)
