@@ -274,3 +274,9 @@ def test_levels_the_frame_cannot_hold_are_left_out_not_drawn_as_a_band():
     assert 1 <= fit < 5 and tree.picture(0, fit)["places"] * tree_view.MIN_PLACE <= width
     assert tree.picture(0, fit + 1)["places"] * tree_view.MIN_PLACE > width  # the most that fit
     assert tree.fitting_levels(0, 2, width) == 2  # levels that fit are kept
+
+
+def test_the_left_button_s_name_in_the_status_bar_says_where_it_picks():
+    """Issue 42 item 5: the status bar read "Pick a Node" for the left button over the whole viewport, where a
+    click outside the tree view selects as usual: the name says it picks in the tree view."""
+    assert tree_view.RAYLAB_OT_tree_click.bl_label == "Pick a Node in the Tree View"

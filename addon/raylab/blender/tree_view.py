@@ -659,7 +659,7 @@ class RAYLAB_OT_tree_walk(bpy.types.Operator):
 class RAYLAB_OT_tree_click(bpy.types.Operator):
     """Pick the tree view's node under the mouse (clicks elsewhere reach the viewport as usual)"""
     bl_idname = "raylab.tree_click"
-    bl_label = "Pick a Node"
+    bl_label = "Pick a Node in the Tree View"  # the status bar shows it for the left button over the whole view
     bl_options = {'UNDO'}  # as tree_walk: no Adjust Last Operation panel over the tree
 
     @classmethod
