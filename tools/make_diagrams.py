@@ -23,6 +23,8 @@ import panel_figure as page
 from panel_figure import SMALL_PT, TEXT_PT
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "addon"))
+from raylab import sah_cost  # noqa: E402  (the SAH's one cost model: the diagram prices as the panels do)
 LEVELS = os.path.join(ROOT, "levels")
 DEPTH_COLORS = ["#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02"]
 SHAPE_FILL = "#9ecae1"
@@ -650,8 +652,8 @@ def thin_triangle_box():
 
 
 def sah_split_cost(triangles, left, right):
-    """The SAH cost of splitting into `left` and `right` (triangle ids) in 2D, where a box's chance of being
-    entered is its perimeter over the parent's: 1 (the node visit) + sum of P(side) x triangles(side)."""
+    """The SAH cost of splitting into `left` and `right` (triangle ids) in 2D, in triangle tests as raylab
+    counts it (sah_cost.split_tests), where a box's chance of being entered is its perimeter over the parent's."""
     def box(ids):
         pts = np.vstack([triangles[i] for i in ids])
         return pts.min(axis=0), pts.max(axis=0)
@@ -659,13 +661,13 @@ def sah_split_cost(triangles, left, right):
     def perimeter(lo, hi):
         return 2.0 * float(np.sum(hi - lo))
     parent = perimeter(*box(left + right))
-    return 1.0 + sum(perimeter(*box(side)) / parent * len(side) for side in (left, right))
+    return sah_cost.split_tests([(perimeter(*box(side)) / parent, len(side)) for side in (left, right)])
 
 
 def sah_against_median():
     """One split of a scene with a crowd on one side and a lone triangle far off: the object median puts
     the crowd in both halves and stretches a box over the empty middle; the SAH cuts off the empty space."""
-    crowd = fan_triangles(blob((-1.3, -0.2), 0.75, 11, 5))
+    crowd = fan_triangles(blob((-1.3, -0.2), 0.75, 31, 5))  # enough triangles that a split pays
     far = [np.array([[1.75, 0.75], [2.15, 0.85], [1.95, 1.2]])]
     tris = crowd + far
     order = sorted(range(len(tris)), key=lambda i: tris[i].mean(axis=0)[0])
@@ -675,12 +677,12 @@ def sah_against_median():
     best = min(((order[:k], order[k:]) for k in range(1, len(order))), key=lambda lr: sah_split_cost(tris, *lr))
     splits["SAH"] = best
     costs["SAH"] = sah_split_cost(tris, *best)
-    leaf_cost = float(len(tris))
+    leaf_cost = sah_cost.leaf_tests(len(tris))
     fig = page.figure(2)
     lo, hi = square_around(np.vstack(tris), margin=0.08)
     for tile, name in enumerate(("object median", "SAH")):
         left, right = splits[name]
-        page.title(fig, tile, f"{name} split:\ncost {costs[name]:.1f} (leaf {leaf_cost:.0f})")
+        page.title(fig, tile, f"{name} split: {costs[name]:.1f}\ntriangle tests (leaf {leaf_cost})")
         ax = page.axes(fig, tile, bottom=0.06, height=0.74)
         draw_triangles(ax, [tris[i] for i in left], face=SHAPE_FILL, lw=0.8)
         draw_triangles(ax, [tris[i] for i in right], face=ENTERED, edge="#a63603", lw=0.8)

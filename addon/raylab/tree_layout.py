@@ -37,6 +37,21 @@ class Children:
     def count(self, node):
         return int(self._start[node + 1] - self._start[node])
 
+    def below(self, node):
+        """The node and every node under it, level by level (numpy per level: a Python walk of the dragon's
+        root, a million nodes, took seconds)."""
+        found, frontier = [np.array([node], dtype=np.int64)], np.array([node], dtype=np.int64)
+        while len(frontier):
+            starts, ends = self._start[frontier], self._start[frontier + 1]
+            counts = ends - starts
+            if counts.sum() == 0:
+                break
+            # Each frontier node's slice of _order, concatenated: start + 0, 1, ... count - 1.
+            offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+            frontier = self._order[np.repeat(starts, counts) + offsets].astype(np.int64)
+            found.append(frontier)
+        return np.concatenate(found)
+
 
 def layout(children, focus=None, levels=None):
     """The picture of the subtree under `focus` (default: the root) down to `levels` levels below it (None:

@@ -198,7 +198,7 @@ def test_over_the_budget_every_kth_ray_is_told_apart_and_the_panel_says_so(many_
     assert 0 < costs.told == len(told) < (work > 0).sum()
     assert sum(costs.counts.values()) == work[told].sum()  # exact, for the rays told apart
     header = viewport_panels.object_lines(bpy.context)[0][0]
-    assert f"{costs.rays:,} rays from the camera ({costs.told:,} of them told apart)" in header
+    assert f"{costs.rays:,} rays from the camera (shares from a sample of {costs.told:,} of them)" in header
 
 
 def test_the_structure_panel_ranks_the_costliest_objects_and_counts_the_rest(many_objects):

@@ -87,7 +87,7 @@ def test_the_probe_says_what_the_tutorial_says(path, structure):
     sentence's words after the status are the text's words."""
     words = probe.BOX_WORDS if structure == "aabb" else probe.STATUS_WORDS
     text = read(path)
-    named = re.findall(r"- \*\*([^*]+)\*\*(?: \(\w+\))?: (.+?)(?= - \*\*|$)", text)
+    named = re.findall(r"- \*\*([^*]+)\*\*(?: \([^)]+\))?: (.+?)(?= - \*\*|$)", text)
     assert len(named) >= 3, named
     root = properties.api.STRUCTURE_INFO[structure]["root_name"]
     for status, meaning in named:
@@ -113,3 +113,52 @@ def test_compare_structures_is_where_the_texts_say():
 
 def test_the_line_colour_default_is_the_green_the_levels_name():
     assert colour_name(properties.VRT_GREEN) == "green"
+
+
+@pytest.fixture
+def level_scenes():
+    """Opens levels (levels.open_level(bpy.context, id)); afterwards the window shows the scene it showed and
+    the level scenes are gone, as the other test files expect."""
+    import bpy
+    from raylab.blender import levels
+    before = bpy.context.window.scene
+    yield lambda level_id: levels.open_level(bpy.context, level_id)
+    bpy.context.window.scene = before
+    for level_scene in [s for s in bpy.data.scenes if levels.state(s) is not None]:
+        levels._remove_scene(level_scene)
+
+
+def test_bvh_2_teaches_the_binary_tree_and_its_numbers_are_the_probe_s(level_scenes):
+    """Issue 42 item 8: BVH 2 says a ray tests two child boxes in the binary tree the builder makes, and what
+    the 8-wide walk does instead, with the numbers the probe reads for the level's first ray."""
+    from raylab.blender import structure_cache
+    scene = level_scenes("bvh_2")
+    text = read("levels/bvh_2/text.md")
+    assert "binary tree" in text and "tests the two child boxes" in text
+    result = probe.evaluate_probe(scene)
+    said = re.search(r"box tests (\d+), nodes visited (\d+), triangle tests (\d+)", text)
+    assert said, "BVH 2 no longer quotes the probe's counts"
+    assert tuple(map(int, said.groups())) == (result["box_tests"], result["nodes_visited"], result["triangle_tests"])
+    model = structure_cache.scene_model(scene)
+    width = model.entry(model.instances[0]).structure.tree()["width"]
+    assert f"{width}-wide" in text and f"up to {width} children" in text
+    origins, directions, _ = probe.probe_rays(scene)
+    (part,) = model.scene.story(origins[0], directions[0]).instances
+    tree = model.entry(model.instances[0]).structure.tree()
+    parents = tree["parent"][part.story.boxes["node"]]
+    children = [int((parents == p).sum()) for p in dict.fromkeys(parents[parents >= 0].tolist())]
+    told = f"{children[0]} at the root, " + " and ".join(map(str, children[1:])) + f" below it ({sum(children)})"
+    assert told in text
+    # the scene's top level (1 box) and the mesh's root box (1) make up the rest
+    assert 1 + 1 + sum(children) == result["box_tests"]
+
+
+def test_octree_2_offers_the_fan_and_says_what_its_summary_adds_up(level_scenes):
+    """Issue 42 item 10: the fan is one click away in Octree 2, and its last line adds up the fan's work."""
+    scene = level_scenes("octree_2")
+    with open(os.path.join(LEVELS_DIR, "octree_2", "level.toml"), "rb") as f:
+        assert "raylab.fan_enabled" in tomllib.load(f)["controls"]
+    assert "adds up the triangle tests and box tests" in read("levels/octree_2/text.md")
+    scene.raylab.fan_enabled = True
+    assert any(line.startswith("fan of ") and "triangle tests" in line and "box tests" in line
+               for line in probe.status_text(scene))

@@ -170,6 +170,17 @@ def test_where_methods_fail_ticks_the_leak_test_then_renders_with_each_setting()
     # Rays from inside the closed sphere through its vertices and edges: the watertight test lets none
     # out, Möller–Trumbore some (the lesson of the level).
     assert leaks["rays"] > 1000 and leaks["watertight"] == 0 and leaks["moller_trumbore"] > 0
+    # Issue 42 item 7: what the sidebar's Contract changes, on the same rays through the BVH: the exact
+    # contract lets none out, the fast one (Möller–Trumbore on stored edges) some; the panel marks the
+    # sidebar's choice, and switching it moves the mark.
+    assert leaks["contracts"]["exact"] == 0 < leaks["contracts"]["fast"]
+    for chosen in raylab.CONTRACTS:
+        scene.raylab.contract = chosen
+        lines = [text for text, _ in leak.contract_lines(leaks, scene.raylab.contract)]
+        label = raylab.CONTRACT_INFO[chosen]["label"]
+        assert [line for line in lines if line.endswith("(the sidebar's Contract)")] == [
+            f"BVH, {label} contract: {leaks['contracts'][chosen]:,} leaked (the sidebar's Contract)"]
+    assert "raylab.contract" in levels.find_level("where_methods_fail").controls
     # The escaped rays, for the viewport: from the centre out through the surface, where they slipped.
     starts, ends, crossings = leak.leak_segments(scene)
     assert len(crossings) == min(leaks["moller_trumbore"], leak.MAX_LEAKS_DRAWN)
@@ -472,3 +483,14 @@ def test_where_work_goes_rod_task_ticks_once_the_rod_and_its_boxes_leave_the_goa
     # The last one, rendered: the task ticks.
     assert render() == goat_alone
     assert timer_tick(scene) == [True, True, True]
+
+
+def test_a_level_that_asks_to_read_the_render_shows_it_under_its_tasks():
+    """Issue 42 item 6: AABB 2 says "render and read Rays ignored"; the number was at the bottom of the
+    sidebar and the render window's header was cut. The Tasks panel of a level whose task waits for a render
+    draws the last render's numbers (viewport_panels.last_render_in_tasks); other levels' do not."""
+    from raylab.blender import level_panels, viewport_panels
+    assert viewport_panels.last_render_in_tasks in level_panels.TASK_SECTIONS
+    asking = [level.id for level in levels.available_levels()[0] if viewport_panels.reads_last_render(level)]
+    assert "aabb_2" in asking and "why_sah" not in asking
+    assert not viewport_panels.reads_last_render(None)

@@ -95,7 +95,8 @@ def test_probe_tells_the_cores_story(torus_scene, case):
         assert result["hit_point"] is None
     text = probe.status_text(scene)
     assert text[0] == probe.status_message(story, "octree")
-    counts = f"triangle tests {result['triangle_tests']} / {result['triangle_total']}, box tests {result['box_tests']}"
+    counts = (f"triangle tests {result['triangle_tests']:,} / {result['triangle_total']:,}, "
+              f"box tests {result['box_tests']:,}")
     assert counts in text[1]
 
 
@@ -154,6 +155,31 @@ def test_a_large_fan_classifies_as_the_story_does(torus_scene):
     assert list(fan[2]) == expected
     assert len(set(expected)) >= 3  # the fan shows several cases, not one
     assert list(fan[3]) == list(range(144))  # a small fan: every ray is drawn as a line
+
+
+@pytest.mark.parametrize("structure", ["octree", "bvh"])
+def test_the_fan_summary_adds_up_its_rays_work(torus_scene, structure):
+    """Issue 42 item 10: one line adds up the fan's triangle and box tests (and nodes visited), each ray's
+    work as its own story counts it, so Octree 2 and BVH 2 compare the structures at a glance."""
+    scene, torus, ray = torus_scene
+    aim(ray, torus, (0.9, -4.0, 0.9), (0.0, 1.0, -0.2))
+    settings = scene.raylab
+    settings.structure, settings.fan_enabled, settings.fan_size = structure, True, 12
+    result = probe.probe_result(scene)
+    origins, directions, _ = probe.probe_rays(scene, fan=True)
+    traced = core_scene(torus, settings)
+    stories = [traced.story(o, d) for o, d in zip(origins, directions)]
+    expected = {c: sum(int(story.stats[c]) for story in stories) for c in probe.PROBE_COUNTERS}
+    assert result.public["fan_rays"] == 144 and result.public["fan_work"] == expected
+    assert expected["triangle_tests"] > 0 and expected["box_tests"] > 0
+    line = next(text for text in result.text if text.startswith("fan of 144 rays"))
+    assert f"triangle tests {expected['triangle_tests']:,} ({expected['triangle_tests'] / 144:.1f} a ray)" in line
+    assert f"box tests {expected['box_tests']:,}" in line
+
+
+def test_counts_read_with_the_thousands_separator_the_panels_use():
+    public = dict(triangle_tests=5522, triangle_total=5522, box_tests=1, nodes_visited=12000)
+    assert probe.counts_text(public) == "triangle tests 5,522 / 5,522, box tests 1, nodes visited 12,000"
 
 
 def test_a_dense_fan_draws_a_sample_of_lines_and_every_end(torus_scene):

@@ -168,9 +168,23 @@ def steps_for(target, first):
 
     def full_size_shown():
         wm = bpy.context.window_manager
-        shown = [a.spaces.active.image.filepath for w in wm.windows for a in w.screen.areas
-                 if a.type == 'IMAGE_EDITOR' and a.spaces.active.image is not None]
-        report["diagrams"][target].update(windows_after_full_size=len(wm.windows), full_size_images=shown)
+        editors = [(w, a) for w in wm.windows for a in w.screen.areas
+                   if a.type == 'IMAGE_EDITOR' and a.spaces.active.image is not None]
+        shown = [a.spaces.active.image.filepath for _, a in editors]
+        # The new window's size and how much of the diagram its editor shows (zoom x image over the region),
+        # once its editor has zoomed to fit (the operator's timer), or after the tries run out.
+        window, area = editors[-1]
+        region = next(r for r in area.regions if r.type == 'WINDOW')
+        space = area.spaces.active
+        state["fit_tries"] = state.get("fit_tries", 0) + 1
+        fitted = all(space.zoom[i] * space.image.size[i] <= (region.width, region.height)[i] + 1 for i in (0, 1))
+        if not fitted and state["fit_tries"] < 20:
+            return False
+        report["diagrams"][target].update(windows_after_full_size=len(wm.windows), full_size_images=shown,
+                                          full_size_window=[window.width, window.height],
+                                          full_size_region=[region.width, region.height],
+                                          full_size_zoom=list(space.zoom), full_size_image=list(space.image.size),
+                                          main_window=[wm.windows[0].width, wm.windows[0].height])
 
     steps = [open_level] + ([click_raylab_tab] if first else []) + [to_top, look]
     return steps + ([show_full_size, full_size_shown] if target == TARGETS[-1] else [])

@@ -49,7 +49,10 @@ def shot_fan_off():
 
 def shot_fan_on():
     screenshot(STEM + "_on.png")
+    region = view3d()[2]
     report.update(fan_rays=FAN_SIZE * FAN_SIZE, lines_drawn=len(probe.fan_lines(FAN_SIZE)),
+                  backdrop=list(probe.drawn_backdrops.get(region.as_pointer(), ())), text=probe.status_text(
+                      bpy.context.scene),
                   status=probe.evaluate_probe(bpy.context.scene)["status"])
 
 

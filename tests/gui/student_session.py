@@ -46,7 +46,7 @@ WATCHDOG_SECONDS = 240
 ROD_MOVE = 2.0       # metres, as the rod task says
 
 import raylab  # noqa: E402
-from raylab.blender import compare, heat_maps, levels, probe, structure_cache, tree_view  # noqa: E402
+from raylab.blender import compare, heat_maps, levels, probe, structure_cache, text_fit, tree_view  # noqa: E402
 
 
 # --- what the student sees and does -------------------------------------------------------------------
@@ -207,8 +207,12 @@ def aabb_2_goat(run):
     yield from step(run, "the ray dragged into the box beside the goat", 2, status=status_of(scene))
     aim_ray(scene, ["hit_object"])
     yield from step(run, "the ray dragged onto the goat", 3, status=status_of(scene))
+    text_fit.RECORD = []  # the panels' lines from now on: the Tasks panel shows the render's numbers
     yield from render_f12()
     yield from step(run, "F12", 4, rays_ignored=scene["raylab_last_render"].to_dict().get("rays_ignored"))
+    run["render_under_tasks"] = yield from wait_until(
+        lambda: any(line == "Last render (F12):" for line, _, _ in text_fit.RECORD), TICK_WAIT)
+    text_fit.RECORD = None
 
 
 def aabb_2_ray(run):
@@ -267,6 +271,15 @@ def bvh_1(run):
     yield from step(run, f"Level mesh: {name}", 4)
 
 
+def read_tree(scene):
+    return tree_view._last_read[scene.name_full]
+
+
+def leaves(scene):
+    parent = read_tree(scene).parent
+    return np.bincount(parent[parent >= 0], minlength=len(parent)) == 0
+
+
 def why_sah(run):
     scene = yield from open_level("why_sah")
     tree = scene.raylab_tree
@@ -279,7 +292,10 @@ def why_sah(run):
             break
         assert press(bpy.ops.raylab.tree_walk, step='COSTLIEST') == {'FINISHED'}
         yield POLL
-    yield from step(run, "Costliest, down to a leaf", 2, node=lambda: tree.node)
+    # The path ends on the leaf that costs rays the most; the panel reads its share of the tree's cost.
+    yield from step(run, "Costliest, down to a leaf", 2, node=lambda: tree.node,
+                    costliest_leaf=lambda: int(np.argmax(np.where(leaves(scene), read_tree(scene).sah_cost, -1))),
+                    panel=lambda: [text for text, _ in tree_view.node_lines(read_tree(scene), tree.node)])
     assert press(bpy.ops.raylab.tree_walk, step='PARENT') == {'FINISHED'}
     yield from step(run, "Up to its parent: the Split Explorer shows its splits", 3, node=lambda: tree.node)
     yield 1.0  # the view drawn with the picked node

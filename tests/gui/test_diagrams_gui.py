@@ -116,3 +116,12 @@ def test_full_size_opens_the_diagram_in_a_new_window(shots):
     entry = shots[TARGETS[-1]]
     assert entry["windows_after_full_size"] == entry["windows_before_full_size"] + 1
     assert diagram_path(TARGETS[-1]) in entry["full_size_images"]
+    # Issue 42 item 6: the window was 351 x 302 with a cropped piece of the picture: the whole diagram is
+    # shown, in a window sized for it (its full size, or most of the main window keeping its shape).
+    (zoom_x, zoom_y), (width, height) = entry["full_size_zoom"], entry["full_size_image"]
+    region_width, region_height = entry["full_size_region"]
+    assert zoom_x * width <= region_width + 1 and zoom_y * height <= region_height + 1, entry
+    main_width, main_height = entry["main_window"]
+    window_width, window_height = entry["full_size_window"]
+    assert window_width >= 0.8 * min(width, 0.9 * main_width), entry
+    assert window_height >= 0.8 * min(height, 0.9 * main_height), entry

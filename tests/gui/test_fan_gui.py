@@ -38,6 +38,21 @@ def test_the_fan_is_drawn_as_a_sample_of_lines(fan_shots):
     assert changed.sum() > 5000, "the fan is not drawn"
 
 
+def test_the_status_text_has_a_dark_backdrop_and_the_fan_s_summary(fan_shots):
+    """Issue 42 items 9 and 10: the probe's text in the top-left corner is drawn on a dark backdrop (over
+    yellow boxes it was unreadable), and it holds the fan's summary line."""
+    report, _, on = fan_shots
+    assert any(line.startswith("fan of 4,096 rays, in all: triangle tests") for line in report["text"])
+    x0, y0, x1, y1 = report["backdrop"]
+    height = on.shape[0]
+    box = on[height - int(y1):height - int(y0), int(x0):int(x1)]
+    below = on[height - int(y0) + 10:height - int(y0) + 60, int(x0):int(x1)]  # the view just under it
+    assert box.shape[0] > 40 and box.shape[1] > 200 and below.shape[0] == 50, (box.shape, below.shape)
+    # Most of the box is backdrop, not text: its median pixel is far darker than the view's under it.
+    inside, outside = float(np.median(box.max(axis=-1))), float(np.median(below.max(axis=-1)))
+    assert inside < 0.5 * outside, (inside, outside)
+
+
 def test_the_mesh_stays_visible_under_the_largest_fan(fan_shots):
     _, off, on = fan_shots
     goat = goat_mask(off)

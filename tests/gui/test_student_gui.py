@@ -108,6 +108,16 @@ def test_the_tree_view_draws_the_tree_and_the_picked_node_s_box(runs):
     assert sum(bool(white[r, c]) for r, c in seen) >= len(seen) - 1, "the picked box's corners drawn white"
 
 
+def test_following_the_cost_down_ends_on_the_costliest_leaf_and_the_panel_says_its_share(runs):
+    """Why SAH?'s task: Costliest from the root ends on the leaf holding the most cost, and the panel
+    reads it in triangle tests, its share of the tree's not a bare 0.0% (issue 42, items 2 and 3)."""
+    (run,) = runs_of(runs, "why_sah")
+    (down,) = [s for s in run["steps"] if s["did"] == "Costliest, down to a leaf"]
+    assert down["node"] == down["costliest_leaf"], down
+    (share,) = [line for line in down["panel"] if "of the tree's" in line]
+    assert "triangle tests" in share and "0.0%" not in share, share
+
+
 def test_a_click_in_the_tree_view_picks_the_node_and_up_picks_its_parent(runs):
     (run,) = runs_of(runs, "why_sah")
     assert run["click"]["picked"] == run["click"]["aimed"] != 0, run["click"]
@@ -127,6 +137,7 @@ def test_what_the_tasks_ask_the_student_to_read_is_there(runs):
     tested: a few of the bunny's, not all."""
     (goat,) = [run for run in runs_of(runs, "aabb_2") if run["way"] == "goat"]
     assert goat["steps"][-1]["rays_ignored"] > 0
+    assert goat["render_under_tasks"], "the Tasks panel never drew the last render's numbers"  # issue 42, 6
     (octree_2,) = runs_of(runs, "octree_2")
     hit = octree_2["steps"][-1]
     assert hit["status"] == "hit_object" and 0 < hit["triangle_tests"] < hit["triangle_total"] / 10

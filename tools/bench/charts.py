@@ -32,11 +32,26 @@ def log_axis(ax, axis, data, formatter=short_count, most=4):
     low, high = int(np.floor(np.log10(min(data)))), int(np.ceil(np.log10(max(data))))
     high = max(high, low + 1)
     step = int(np.ceil((high - low + 1) / most))
-    values = [10.0 ** e for e in range(low, high + 1, step)]
     getattr(ax, f"set_{axis}scale")("log")
     getattr(ax, f"set_{axis}lim")(10.0 ** low, 10.0 ** high)
-    getattr(ax, f"set_{axis}ticks")(values, [formatter(v) for v in values])
     getattr(ax, f"{axis}axis").set_minor_locator(NullLocator())
+    # Fewer ticks until the labels do not touch on the axis as drawn ("100k10M" on a narrow panel).
+    while True:
+        values = [10.0 ** e for e in range(low, high + 1, step)]
+        getattr(ax, f"set_{axis}ticks")(values, [formatter(v) for v in values])
+        if len(values) <= 2 or not labels_overlap(ax, axis):
+            return
+        step += 1
+
+
+def labels_overlap(ax, axis, gap_px=4.0):
+    """Whether any two tick labels of ax's `axis` come closer than gap_px pixels when drawn."""
+    renderer = ax.figure.canvas.get_renderer()
+    labels = [t for t in getattr(ax, f"get_{axis}ticklabels")() if t.get_text()]
+    boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0 if axis == "x" else b.y0)
+    if axis == "x":
+        return any(b.x0 - a.x1 < gap_px for a, b in zip(boxes, boxes[1:]))
+    return any(b.y0 - a.y1 < gap_px for a, b in zip(boxes, boxes[1:]))
 
 
 def seconds_label(x):

@@ -8,6 +8,7 @@ as the panel's column. Blender's own preview of a file is a thumbnail of at most
 the square; these previews are made here from the picture's own pixels, resampled once to the size
 Blender draws the square at, so it draws them pixel for pixel.
 """
+import functools
 import os
 
 import bpy
@@ -194,13 +195,44 @@ class RAYLAB_OT_level_show_diagram(bpy.types.Operator):
             self.report({'ERROR'}, f"raylab: no diagram at {self.path}")
             return {'CANCELLED'}
         image = bpy.data.images.load(self.path, check_existing=True)
-        # render.view_show opens a new window with an image editor; show the diagram in it instead.
-        bpy.ops.render.view_show('INVOKE_DEFAULT')
-        area = next((a for w in context.window_manager.windows for a in w.screen.areas if a.type == 'IMAGE_EDITOR'),
-                    None)
+        before = {w.as_pointer() for w in context.window_manager.windows}
+        # render.view_show opens a new window with an image editor, sized for the render (351 x 302 in a
+        # level: a cropped piece of a chart): sized for the diagram instead, then the diagram shown whole.
+        render = context.scene.render
+        saved = render.resolution_x, render.resolution_y, render.resolution_percentage
+        width, height = full_size(tuple(image.size), (context.window.width, context.window.height))
+        try:
+            render.resolution_x, render.resolution_y, render.resolution_percentage = width, height, 100
+            bpy.ops.render.view_show('INVOKE_DEFAULT')
+        finally:
+            render.resolution_x, render.resolution_y, render.resolution_percentage = saved
+        window = next((w for w in context.window_manager.windows if w.as_pointer() not in before), None)
+        windows = [window] if window is not None else list(context.window_manager.windows)
+        area = next((a for w in windows for a in w.screen.areas if a.type == 'IMAGE_EDITOR'), None)
         if area is not None:
             area.spaces.active.image = image
+            # Once the new window has its size: the whole diagram in view.
+            bpy.app.timers.register(functools.partial(_fit_whole, area.as_pointer()), first_interval=0.2)
         return {'FINISHED'}
+
+
+def full_size(image_size, window_size, margin=0.9):
+    """The window size (width, height) that shows a diagram of `image_size` pixels at its full size, or
+    as large as fits in `margin` of the main window keeping its shape."""
+    width, height = image_size
+    fit = min(1.0, margin * window_size[0] / max(width, 1), margin * window_size[1] / max(height, 1))
+    return max(int(width * fit), 64), max(int(height * fit), 64)
+
+
+def _fit_whole(pointer):
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.as_pointer() == pointer and area.type == 'IMAGE_EDITOR':
+                region = next(r for r in area.regions if r.type == 'WINDOW')
+                with bpy.context.temp_override(window=window, area=area, region=region):
+                    bpy.ops.image.view_all(fit_view=True)
+                return None
+    return None
 
 
 def release():

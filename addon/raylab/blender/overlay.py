@@ -81,11 +81,10 @@ def depth_key(settings, depths):
 
 
 def drawn_depths(scene, view_layer=None):
-    """The depths of the boxes the overlay draws (leaves only, if so set) over every shown object whose
+    """The depths of the boxes the overlay draws (leaves only, if so set) over every shown geometry whose
     structure is built, without building any (a panel's draw asks)."""
     depths = set()
-    for obj in structure_cache.target_objects(scene, view_layer):
-        entry = structure_cache.cached(obj, scene)
+    for entry in structure_cache.cached_entries(scene).values():
         if entry is not None and entry.structure is not None:
             depths |= entry.leaf_depths if scene.raylab.leaves_only else entry.depths
     return depths
@@ -94,13 +93,16 @@ def drawn_depths(scene, view_layer=None):
 def line_geometry(obj, scene, depsgraph=None):
     """The cached wireframe of `obj`'s structure for the scene's settings, rebuilt only when the
     structure or the filters changed; None when the structure is unavailable."""
-    settings = scene.raylab
-    entry = structure_cache.structure_for(obj, settings, depsgraph)
-    if entry.structure is None:
-        _geometry.pop(obj.name_full, None)
+    return geometry_of(obj.name_full, structure_cache.structure_for(obj, scene.raylab, depsgraph), scene.raylab)
+
+
+def geometry_of(name, entry, settings):
+    """The cached wireframe of geometry `name`'s Entry (see line_geometry)."""
+    if entry is None or entry.structure is None:
+        _geometry.pop(name, None)
         return None
     key = (entry.key, filter_key(settings))
-    geometry = _geometry.get(obj.name_full)
+    geometry = _geometry.get(name)
     if geometry is not None and geometry.key == key:
         return geometry
     # The core filters, colours and lays out the lines (Structure.boxes(lines=True)): numpy took
@@ -109,7 +111,7 @@ def line_geometry(obj, scene, depsgraph=None):
                                   leaves_only=settings.leaves_only, palette=box_palette(settings),
                                   fade=settings.fade, alpha_scale=alpha_scale(settings))
     geometry = LineGeometry(key, lines["positions"], lines["colors"], lines["indices"], lines["box_count"])
-    _geometry[obj.name_full] = geometry
+    _geometry[name] = geometry
     stats["batch_builds"] += 1
     return geometry
 
@@ -122,15 +124,16 @@ def _draw_boxes():
     settings = scene.raylab
     if not settings.show:
         return
-    depsgraph = context.evaluated_depsgraph_get()
-    for obj in structure_cache.target_objects(scene, context.view_layer):
-        geometry = line_geometry(obj, scene, depsgraph)
+    model = structure_cache.scene_model(scene, context.evaluated_depsgraph_get())
+    # Each instance of a geometry (a collection instance's objects, geometry nodes' instances) draws the
+    # geometry's one batch with its own matrix.
+    for name, matrix in model.drawn():
+        geometry = geometry_of(name, model.entry(name), settings)
         if geometry is None or geometry.box_count == 0:
             continue
         if geometry.batch is None:
             geometry.batch = make_batch('LINES', geometry.positions, geometry.colors, geometry.indices)
-        entry = structure_cache.structure_for(obj, settings, depsgraph)
-        draw_batch(geometry.batch, entry.model_matrix(obj), settings.xray)
+        draw_batch(geometry.batch, matrix, settings.xray)
 
 
 # --- live updates --------------------------------------------------------------------------------

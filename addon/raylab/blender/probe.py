@@ -32,6 +32,8 @@ MISSED_BOX_COLOR = (1.0, 0.3, 0.25, 0.55)
 ENTRY_COLOR = (1.0, 1.0, 1.0, 1.0)
 HIT_COLOR = (1.0, 0.15, 0.55, 1.0)
 TEXT_COLOR = (0.92, 0.92, 0.92, 1.0)
+BACKDROP_COLOR = (0.0, 0.0, 0.0, 0.8)  # behind the status text: it stays readable over yellow boxes
+LINE_SPACING = 1.5  # the status text's baselines, in font sizes
 FAN_OBJECT_HALF_ANGLE = math.radians(20.0)  # the ray object's fan: a 40° pyramid around its +Z axis
 # A fan with more rays than this draws lines for an even sample of them, and a dot where every ray
 # ends (a density that stays readable): a 64×64 fan of lines would cover the whole view.
@@ -56,11 +58,12 @@ STATUS_WORDS = {
     "missed_triangles": "missed_triangles: it crosses boxes with triangles, tests them, and hits none",
     "hit_object": "hit_object: it hits a triangle",
 }
+# The AABB's three cases, opening with the status as every structure's do (AABB 2 names the cases after them).
 BOX_WORDS = {
-    "missed_root": "Ignored (missed_root): the ray misses the box",
-    "missed_nodes": "Box hit, object missed: the ray enters the box but passes the object",
-    "missed_triangles": "Box hit, object missed: the ray enters the box but passes the object",
-    "hit_object": "Object hit: the ray hits a triangle",
+    "missed_root": "missed_root: the ray misses the box, it is ignored",
+    "missed_nodes": "missed_nodes: the ray enters the box but passes the object",
+    "missed_triangles": "missed_triangles: the ray enters the box but passes the object",
+    "hit_object": "hit_object: the ray hits a triangle",
 }
 
 
@@ -147,13 +150,22 @@ PROBE_COUNTERS = ("triangle_tests", "box_tests", "nodes_visited")  # of api.COUN
 
 def counts_text(public):
     """The probe's counts line, in the counters' labels: "triangle tests 12 / 968, box tests 30, ..."."""
-    parts = [f"{api.COUNTER_INFO[c]['label'].lower()} {public[c]}" for c in PROBE_COUNTERS]
-    parts[0] += f" / {public['triangle_total']}"
+    parts = [f"{api.COUNTER_INFO[c]['label'].lower()} {public[c]:,}" for c in PROBE_COUNTERS]
+    parts[0] += f" / {public['triangle_total']:,}"
     return ", ".join(parts)
 
 
+def fan_work_text(rays, work):
+    """The fan's summary line: its rays' work added up, in the counters' labels, and per ray, so that two
+    structures compare at a glance: "fan of 1,024 rays: triangle tests 12,345 (12.1 a ray), ..."."""
+    parts = [f"{api.COUNTER_INFO[c]['label'].lower()} {work[c]:,} ({work[c] / max(rays, 1):.1f} a ray)"
+             for c in PROBE_COUNTERS]
+    return f"fan of {rays:,} rays, in all: " + ", ".join(parts)
+
+
 def _empty_public():
-    return dict(status="", triangle_total=0, hit_point=None, **dict.fromkeys(PROBE_COUNTERS, 0))
+    return dict(status="", triangle_total=0, hit_point=None, fan_rays=0, fan_work=None,
+                **dict.fromkeys(PROBE_COUNTERS, 0))
 
 
 def _probe_key(scene, model):
@@ -191,8 +203,10 @@ def probe_result(scene, depsgraph=None):
         text = [status_message(story, settings.structure), counts_text(public)]
         fan_drawing = None
         if fan[0] is not None:
-            fan_drawing, fan_counts = _trace_fan(model.scene, fan, settings.probe_length, settings.fan_size)
-            text.append("fan: " + ", ".join(f"{fan_counts[s]} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
+            fan_drawing, fan_counts, fan_work = _trace_fan(model.scene, fan, settings.probe_length, settings.fan_size)
+            text.append("fan: " + ", ".join(f"{fan_counts[s]:,} {s.replace('_', ' ')}" for s in reversed(STATUSES)))
+            public.update(fan_rays=len(fan[0]), fan_work=fan_work)
+            text.append(fan_work_text(len(fan[0]), fan_work))
         length = story.hit["t"] if story.hit is not None else settings.probe_length
         drawing = _drawing(story, origins[0], directions[0], length)
         result = ProbeResult(key, public, text + errors, drawing, fan_drawing)
@@ -210,14 +224,17 @@ def fan_lines(side):
 
 def _trace_fan(traced_scene, fan, length, side):
     """The fan's rays in world space, ending at their hits (or after `length`), with the statuses the
-    scene's stories would give them, the rays drawn as lines, and how many rays have each status."""
+    scene's stories would give them, the rays drawn as lines, how many rays have each status, and the
+    work of all its rays added up ({counter: total} of PROBE_COUNTERS: what their stories count)."""
     origins, directions, _ = fan
     result = traced_scene.statuses(origins, directions)
     codes = result.status.astype(int)
     t = result.t.astype(np.float64)
     ends = origins + np.where(np.isfinite(t), t, length)[:, None] * directions
     counts = {s: int(np.sum(codes == i)) for i, s in enumerate(STATUSES)}
-    return (origins, ends, np.array(STATUSES)[codes], fan_lines(side)), counts
+    stats = traced_scene.intersect(origins, directions, count=True).stats
+    work = {c: int(stats[c]) for c in PROBE_COUNTERS}
+    return (origins, ends, np.array(STATUSES)[codes], fan_lines(side)), counts, work
 
 
 def _drawing(story, origin, direction, length):
@@ -311,6 +328,17 @@ def _draw_boxes(lo, hi, color, model, xray, width):
     draw.draw_batch(batch, model, xray, draw.THICK, width)
 
 
+drawn_backdrops = {}  # region pointer -> the status text's backdrop last drawn there (what the GUI tests read)
+
+
+def text_backdrop(left, baseline, size, widths, scale=1.0):
+    """The rectangle (x0, y0, x1, y1) in region pixels behind the status text's lines: the first baseline
+    at `baseline`, each next LINE_SPACING font `size`s lower, `widths` their widths in pixels."""
+    pad = 6 * scale
+    bottom = baseline - (len(widths) - 1) * LINE_SPACING * size - 0.4 * size
+    return left - pad, bottom - pad, left + max(widths, default=0) + pad, baseline + size + pad
+
+
 def _draw_text():
     import blf
     context = bpy.context
@@ -329,14 +357,29 @@ def _draw_text():
     y = region.height - covered - 80 * scale
     font = 0
     blf.size(font, size)
+    if result.text:
+        backdrop = text_backdrop(left, y, size, [blf.dimensions(font, line)[0] for line in result.text], scale)
+        _draw_backdrop(backdrop)
+        drawn_backdrops[region.as_pointer()] = backdrop
     blf.enable(font, blf.SHADOW)
     blf.shadow(font, 3, 0.0, 0.0, 0.0, 0.9)
     for i, line in enumerate(result.text):
         color = STATUS_COLORS.get(result.public["status"], TEXT_COLOR) if i == 0 else TEXT_COLOR
         blf.color(font, *color)
-        blf.position(font, left, y - i * size * 1.5, 0)
+        blf.position(font, left, y - i * size * LINE_SPACING, 0)
         blf.draw(font, line)
     blf.disable(font, blf.SHADOW)
+
+
+def _draw_backdrop(rect):
+    import gpu
+    x0, y0, x1, y1 = rect
+    positions = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], np.float32)
+    colors = np.tile(np.asarray(BACKDROP_COLOR, np.float32), (4, 1))
+    batch = draw.make_batch('TRIS', positions, colors, np.array([[0, 1, 2], [0, 2, 3]], np.uint32))
+    gpu.state.blend_set('ALPHA')
+    batch.draw(gpu.shader.from_builtin(draw.THIN))
+    gpu.state.blend_set('NONE')
 
 
 # --- the ray object and its operator ----------------------------------------------------------------------

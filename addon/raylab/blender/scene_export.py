@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import api
-from . import compat
+from . import compat, scene_geometry
 
 from .mesh_data import corner_normals, mesh_triangles, mesh_vertices
 
@@ -28,7 +28,7 @@ class Instance:
     mesh: int            # index into ExportedScene.meshes
     matrix: np.ndarray   # (4,4) float64 row-major object -> world
     material: int        # index into ExportedScene.materials
-    object_name: str     # the original object whose geometry this is
+    object_name: str     # the geometry's name (scene_geometry.MeshInstance.source)
 
 
 @dataclass
@@ -49,25 +49,24 @@ def export_scene(depsgraph):
     mesh_index = {}        # evaluated mesh pointer -> index in exported.meshes
     material_index = {}    # material name or object colour -> index
     for instance in depsgraph.object_instances:
-        obj = instance.object
-        if not instance.is_instance and not instance.show_self:
-            continue
-        if obj.type == 'LIGHT':
-            exported.lights.append(_light(obj.data, instance.matrix_world))
-        elif obj.type == 'MESH':
-            # Objects that share an evaluated mesh (one datablock without modifiers, or instances of one
-            # object) share its pointer. Curves and text come as mesh instances of their evaluated geometry.
-            key = obj.data.as_pointer()
-            if key not in mesh_index:
-                arrays = _mesh_arrays(obj.data, obj.original.name)
-                if arrays is None:
-                    continue
-                mesh_index[key] = len(exported.meshes)
-                exported.meshes.append(arrays)
-                exported.normals.append(corner_normals(obj.data))
-            material = _material_slot(obj, material_index, exported.materials)
-            exported.instances.append(Instance(mesh_index[key], np.array(instance.matrix_world, np.float64),
-                                               material, obj.original.name))
+        if instance.object.type == 'LIGHT' and (instance.is_instance or instance.show_self):
+            exported.lights.append(_light(instance.object.data, instance.matrix_world))
+    # The viewport's scene model reads the same instances (scene_geometry): what F12 renders is what the
+    # boxes, the probe and "Costliest objects" see.
+    for instance in scene_geometry.mesh_instances(depsgraph):
+        obj = instance.obj
+        # Instances of one evaluated mesh (one datablock without modifiers, a collection's object, a
+        # geometry nodes' instance) share its pointer: the mesh is exported, and its structure built, once.
+        key = instance.mesh.as_pointer()
+        if key not in mesh_index:
+            arrays = _mesh_arrays(instance.mesh, instance.source)
+            if arrays is None:
+                continue
+            mesh_index[key] = len(exported.meshes)
+            exported.meshes.append(arrays)
+            exported.normals.append(corner_normals(instance.mesh))
+        material = _material_slot(obj, material_index, exported.materials)
+        exported.instances.append(Instance(mesh_index[key], instance.matrix, material, instance.source))
     if not exported.instances:
         raise ExportError("Nothing to render: the scene has no visible mesh object with faces")
     exported.background = world_colour(scene.world)

@@ -1,6 +1,8 @@
-"""The raylab.Scene of each Blender scene: its shown mesh objects, what the overlay draws and the probe
-and its fan trace, with the renderer's geometry model (one mesh per object, one instance of it with
-the object's matrix_world, a top level over the instances where the structure has one).
+"""The raylab.Scene of each Blender scene: its shown geometry, what the overlay draws and the probe
+and its fan trace, with the renderer's geometry model: the evaluated depsgraph's mesh instances read as F12
+reads them (scene_geometry.mesh_instances: mesh objects, text, curves, surfaces, metaballs, collection
+and particle instances, geometry nodes' instances), one raylab mesh per geometry shared by its instances,
+each instance with its matrix, a top level over the instances where the structure has one.
 
 The scene is kept between redraws and changed only where Blender changed: a new transform moves an
 instance (no rebuild; the top level is refitted), a geometry change replaces that object's mesh (its
@@ -15,20 +17,21 @@ the probe tests that box.
 """
 import hashlib
 import itertools
+import re
 
 import bpy
 import numpy as np
 
 from .. import api
 
-from . import build_settings
+from . import build_settings, scene_geometry
 from .mesh_data import mesh_triangles, mesh_vertices
 
 WORLD_ALIGNED = "aabb"  # the one structure kept in world space (see above)
 
 stats = {"structure_builds": 0, "structure_refits": 0, "mesh_reads": 0}
 
-_meshes = {}   # object name -> (the object's identity, _Mesh)
+_meshes = {}   # geometry name (MeshInstance.source) -> (its object's identity, _Mesh)
 _dirty = set()  # object names whose evaluated geometry changed since it was read
 _models = {}   # Blender scene name -> SceneModel
 # Every commit of every model takes the next number: a cache keyed on a model's version cannot mistake a
@@ -101,17 +104,24 @@ class _Part:
 
 
 class SceneModel:
-    """One Blender scene's raylab.Scene and which object is which instance."""
+    """One Blender scene's raylab.Scene and which geometry is which instance. Parts and entries are
+    named by their geometry (MeshInstance.source: a mesh object's or text's own name); in the world-aligned
+    'aabb' each instance has its own part, the second and later ones of a geometry named "name #k"."""
 
     def __init__(self, settings_key, settings):
         structure = settings_key[0]
         self.settings_key = settings_key
+        # The panels' names of the settings a core message may name (its error says "max_depth").
+        self.labels = {name: settings.bl_rna.properties[name].name for name in build_settings.SETTINGS
+                       if name in settings.bl_rna.properties}
         self.scene = api.Scene(**build_settings.build_kwargs(settings))
         self.world = structure == WORLD_ALIGNED
-        self.parts = {}       # object name -> _Part
-        self.shown = ([], [])  # the object names and matrix bytes last asked for
-        self.targets = []      # the objects last asked to be traced, those that cannot be too
-        self.instances = []   # instance id -> object name
+        self.parts = {}       # geometry name -> _Part
+        self.shown = ([], [])  # the geometry names and matrix bytes last asked for
+        self.targets = []      # the geometries last asked to be traced, those that cannot be too
+        self.owners = {}       # geometry name -> the name of the object the user sees it as
+        self.instances = []   # instance id -> geometry name
+        self.matrices = []    # instance id -> its (4,4) matrix (identity where the mesh is in world space)
         self.stale = 0        # meshes added or replaced since the last commit
         self.refits = 0       # meshes refitted since the last commit
         self.error = None     # why the last commit failed
@@ -142,10 +152,18 @@ class SceneModel:
                 part.counted = (part.key, part.entry.counted())
         return part.entry
 
-    def _update_part(self, obj, mesh, matrix, refit):
-        """Adds, replaces or (`refit`, the same triangles moved) refits the object's mesh if it changed;
+    def drawn(self):
+        """[(geometry name, (4,4) matrix)] of every traced instance: what the overlay draws where."""
+        return list(zip(self.instances, self.matrices))
+
+    def shown_entries(self):
+        """{geometry name: Entry or None} of the geometries last asked for, without making any entry (what a
+        panel's draw may ask)."""
+        return {name: self.entry(name, make=False) for name in dict.fromkeys(self.targets) if name in self.parts}
+
+    def _update_part(self, name, mesh, matrix, refit):
+        """Adds, replaces or (`refit`, the same triangles moved) refits the geometry's mesh if it changed;
         True if it did."""
-        name = obj.name_full
         key = (mesh.digest, self.settings_key, matrix.tobytes() if self.world else None)
         part = self.parts.get(name)
         if part is not None and part.key == key:
@@ -197,7 +215,7 @@ class SceneModel:
                 pass  # a matrix the scene refuses: set the instances again below, without it
         self.shown = request
         self.scene.clear_instances()
-        self.instances = []
+        self.instances, self.matrices = [], []
         for name, matrix in zip(names, matrices):
             part = self.parts[name]
             part.instance_error = None
@@ -207,20 +225,30 @@ class SceneModel:
                 part.instance_error = f"not traced: {error}"
                 continue
             self.instances.append(name)
+            self.matrices.append(matrix)
         return True
 
-    def update(self, targets, depsgraph, refit=True):
-        """Brings the scene up to date with the objects `targets`; `refit`: a deformed mesh's structure
-        is refitted (else rebuilt)."""
+    def update(self, depsgraph, shown, refit=True):
+        """Brings the scene up to date with the depsgraph's mesh instances whose owner `shown(owner)`
+        accepts; `refit`: a deformed mesh's structure is refitted (else rebuilt)."""
         changed = False
-        names, matrices = [], []
-        self.targets = [obj.name_full for obj in targets]
-        for obj in targets:
-            matrix = matrix_of(obj)
-            changed |= self._update_part(obj, _mesh_of(obj, depsgraph), matrix, refit)
-            if self.parts[obj.name_full].error is None:
-                names.append(obj.name_full)
+        names, matrices, targets, read, copies = [], [], [], {}, {}
+        for instance in scene_geometry.mesh_instances(depsgraph):
+            if not shown(instance.owner):
+                continue
+            name = instance.source
+            if self.world:  # a world-space mesh per instance
+                copies[name] = copies.get(name, 0) + 1
+                name = name if copies[name] == 1 else f"{name} #{copies[name]}"
+            targets.append(name)
+            self.owners[name] = instance.owner.name_full
+            matrix = instance.matrix
+            changed |= self._update_part(name, _mesh_of(instance.source, instance, read), matrix, refit)
+            if self.parts[name].error is None:
+                names.append(name)
                 matrices.append(np.identity(4) if self.world else matrix)
+        _dirty.difference_update(read.values())
+        self.targets = targets
         changed |= self._set_instances(names, matrices)
         if changed:
             self._commit()
@@ -232,7 +260,7 @@ class SceneModel:
         try:
             self.scene.commit()
         except (ValueError, RuntimeError) as error:  # e.g. BuildError over the memory budget
-            self.error = f"{self.settings_key[0]} not built: {error}"
+            self.error = f"{self.settings_key[0]} not built: {readable(str(error), self.labels)}"
             self.committed = False
             return
         stats["structure_builds"] += self.stale
@@ -242,6 +270,23 @@ class SceneModel:
         self.committed = True
         for name in self.parts:  # made here, not when a panel's draw first asks (structure_cache.cached)
             self.entry(name)
+
+
+def readable(message, labels):
+    """A core message in the panels' words: byte counts in KiB, MiB or GiB ("4294967296 bytes" is 4 GiB),
+    setting names as their labels (`labels`: {"max_depth": "Max depth"})."""
+    message = re.sub(r"\b(\d+) bytes\b", lambda m: _size(int(m.group(1))), message)
+    message = re.sub(r"\bbudget of (\d+)\b", lambda m: "budget of " + _size(int(m.group(1))), message)
+    for name, label in labels.items():
+        message = re.sub(rf"\b{name}\b", label, message)
+    return message
+
+
+def _size(count):
+    for power, unit in ((3, "GiB"), (2, "MiB"), (1, "KiB")):
+        if count >= 1024 ** power:
+            return f"{count / 1024 ** power:.3g} {unit}"
+    return f"{count:,} bytes"
 
 
 def matrix_of(obj):
@@ -258,15 +303,25 @@ def view_layer_of(scene):
 
 
 def target_objects(scene, view_layer=None):
-    """The mesh objects the overlay draws and the probe tests (scene.raylab.objects), without the probe's
-    ray object: it is the ray, not something in its way."""
+    """The mesh objects shown (scene.raylab.objects), without the probe's ray object: the objects the spin
+    turns and the probe aims at. The model itself reads every shown geometry (shown_filter)."""
+    view_layer = view_layer or view_layer_of(scene)
+    shown = shown_filter(scene, view_layer)
+    return [o for o in scene.objects if o.type == 'MESH' and shown(o)]
+
+
+def shown_filter(scene, view_layer=None):
+    """Whether the overlay draws and the probe tests an object's geometry (an instance's: its owner's):
+    shown in the view layer, selected if scene.raylab.objects says so, and not the probe's ray object (it
+    is the ray, not something in its way)."""
     view_layer = view_layer or view_layer_of(scene)
     ray_object = scene.raylab.probe_object
-    objects = [o for o in scene.objects
-               if o.type == 'MESH' and o != ray_object and o.visible_get(view_layer=view_layer)]
-    if scene.raylab.objects == 'SELECTED':
-        objects = [o for o in objects if o.select_get(view_layer=view_layer)]
-    return objects
+    selected_only = scene.raylab.objects == 'SELECTED'
+
+    def shown(obj):
+        return (obj != ray_object and obj.visible_get(view_layer=view_layer)
+                and (not selected_only or obj.select_get(view_layer=view_layer)))
+    return shown
 
 
 def read_mesh(obj, depsgraph):
@@ -290,27 +345,33 @@ def identity(obj):
             data.name_full if data is not None else None)
 
 
-def _mesh_of(obj, depsgraph):
-    name = obj.name_full
+def _mesh_of(name, instance, read):
+    """The _Mesh of geometry `name` (a MeshInstance's source), read from its evaluated mesh if it is new,
+    changed and not read yet by this update (`read`: geometry name -> object name, of those it read)."""
+    obj = instance.obj.original
     known, mesh = _meshes.get(name, (None, None))
     now = identity(obj)
-    if mesh is None or name in _dirty or known != now:
-        mesh = _Mesh(*read_mesh(obj, depsgraph or bpy.context.evaluated_depsgraph_get()))
+    if mesh is None or (obj.name_full in _dirty and name not in read) or known != now:
+        mesh = _Mesh(mesh_vertices(instance.mesh), mesh_triangles(instance.mesh))
+        stats["mesh_reads"] += 1
         _meshes[name] = (now, mesh)
-        _dirty.discard(name)
+        read[name] = obj.name_full
     return mesh
 
 
 def scene_model(scene, depsgraph=None):
-    """The SceneModel of a Blender scene, brought up to date with its shown objects and settings."""
+    """The SceneModel of a Blender scene, brought up to date with its shown geometry and settings."""
     settings = scene.raylab
     key = build_settings.cache_key(settings)
-    targets = target_objects(scene)
     model = _models.get(scene.name_full)
-    # New settings rebuild every structure anyway; objects long gone would keep their meshes.
-    if model is None or model.settings_key != key or len(model.parts) > 2 * len(targets) + 16:
+    if model is None or model.settings_key != key:  # new settings rebuild every structure anyway
         model = _models[scene.name_full] = SceneModel(key, settings)
-    model.update(targets, depsgraph, refit=settings.animation_update == 'REFIT')
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    shown = shown_filter(scene)
+    model.update(depsgraph, shown, refit=settings.animation_update == 'REFIT')
+    if len(model.parts) > 2 * len(model.targets) + 16:  # geometry long gone would keep its meshes
+        model = _models[scene.name_full] = SceneModel(key, settings)
+        model.update(depsgraph, shown, refit=False)
     return model
 
 
@@ -329,6 +390,14 @@ def cached(obj, scene=None):
     scene = scene or bpy.context.scene
     model = _models.get(scene.name_full)
     return None if model is None else model.entry(obj.name_full, make=False)
+
+
+def cached_entries(scene=None):
+    """{geometry name: Entry or None} of the shown geometries last read, without building or making any
+    (what a panel's draw may ask)."""
+    scene = scene or bpy.context.scene
+    model = _models.get(scene.name_full)
+    return {} if model is None else model.shown_entries()
 
 
 def mark_geometry_changed(depsgraph):

@@ -62,9 +62,14 @@ def fits(context, text, icon=False, boxes=0, columns=1, width=None):
     return measure(text, font_pixels(context)) <= available(context, icon, boxes, columns, width)
 
 
+# Where a word wider than the line may break, keeping the mark on the first line: a name such as
+# moller_trumbore or a path breaks after "_" or "/" ("moller_" / "trumbore"), never mid-word if it can.
+BREAK_AFTER = "_/.-,"
+
+
 def lines(context, text, icon=False, boxes=0, columns=1, width=None):
     """`text` broken into lines that each fit: at spaces where it can, inside a word only when one word is
-    wider than the line."""
+    wider than the line, then after one of BREAK_AFTER if a piece up to one fits."""
     room = max(1.0, available(context, icon, boxes, columns, width))
     pixels = font_pixels(context)
     key = (text, round(room), round(pixels, 2))
@@ -85,6 +90,8 @@ def lines(context, text, icon=False, boxes=0, columns=1, width=None):
             line = word
             while measure(line, pixels) > room and len(line) > 1:  # one word wider than the line
                 cut = next(n for n in range(len(line) - 1, 0, -1) if measure(line[:n], pixels) <= room or n == 1)
+                marks = [n for n in range(1, cut + 1) if line[n - 1] in BREAK_AFTER]
+                cut = marks[-1] if marks else cut
                 result.append(line[:cut])
                 line = line[cut:]
         result.append(line)

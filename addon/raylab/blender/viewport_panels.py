@@ -9,7 +9,7 @@ many more.
 import bpy
 
 from .. import api
-from . import build_settings, cost_overlay, overlay, probe, render_stats, structure_cache, text_fit
+from . import build_settings, cost_overlay, level_panels, overlay, probe, render_stats, structure_cache, text_fit
 
 TOP_OBJECTS = 5      # objects listed by name in the ranking
 KEY_SWATCH = 16      # pixels of a depth colour's icon
@@ -126,8 +126,7 @@ def object_lines(context):
     the objects ranked by their share of the triangle tests, the costliest TOP_OBJECTS by name and how
     many more."""
     scene = context.scene
-    entries = {obj.name_full: structure_cache.cached(obj, scene)
-               for obj in structure_cache.target_objects(scene, context.view_layer)}
+    entries = structure_cache.cached_entries(scene)  # every shown geometry: text and instances too
     lines = [(f"{name}: {entry.error}", 'ERROR') for name, entry in entries.items() if entry and entry.error]
     built = {name: entry for name, entry in entries.items() if entry and entry.structure is not None}
     if not built:
@@ -136,7 +135,7 @@ def object_lines(context):
     if costs is None:
         return lines + [(f"Costliest objects: {why_not}", 'INFO')]
     ranked = [(name, share) for name, _, share in costs.ranked() if name in built]
-    sample = "" if costs.told == costs.rays else f" ({costs.told:,} of them told apart)"
+    sample = "" if costs.told == costs.rays else f" (shares from a sample of {costs.told:,} of them)"
     counted = api.COUNTER_INFO[cost_overlay.RANK_COUNTER]["label"].lower()
     lines.append((f"Costliest objects, by their share of the {counted} of {costs.rays:,} rays from the "
                   f"camera{sample}:", 'SORTSIZE'))
@@ -154,7 +153,7 @@ def share_text(share):
 
 def structure_text(entry):
     s = entry.structure
-    return (f"{entry.box_count:,} boxes, {s.memory_bytes / 1024:.0f} KiB, "
+    return (f"{entry.box_count:,} {'box' if entry.box_count == 1 else 'boxes'}, {s.memory_bytes / 1024:.0f} KiB, "
             f"built in {s.build_seconds * 1000:.1f} ms")
 
 
@@ -237,6 +236,22 @@ class RAYLAB_PT_last_render(SidebarPanel, bpy.types.Panel):
         render_stats.draw_last(self.layout, context)
 
 
+def reads_last_render(level):
+    """Whether a level's tasks ask for a render's numbers (a task done when the last render exists)."""
+    return level is not None and any(task.condition.get("id_property") == render_stats.LAST_RENDER
+                                     for task in level.tasks)
+
+
+def last_render_in_tasks(layout, context):
+    """A level_panels.TASK_SECTIONS hook: where a task says "render and read Rays ignored", the last render's
+    numbers under the tasks (the Last render panel sits at the sidebar's bottom, the render window's header
+    is cut at a level's small resolution)."""
+    if reads_last_render(level_panels.current_level(context)) and render_stats.LAST_RENDER in context.scene:
+        box = layout.box()
+        text_fit.label(box, context, "Last render (F12):", 'RENDER_RESULT', boxes=1)
+        render_stats.draw(box, context, context.scene[render_stats.LAST_RENDER])
+
+
 CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_cost, RAYLAB_PT_last_render)
 
 
@@ -245,9 +260,12 @@ _register, _unregister = bpy.utils.register_classes_factory(CLASSES)
 
 def register():
     _register()
+    level_panels.TASK_SECTIONS.append(last_render_in_tasks)
 
 
 def unregister():
+    if last_render_in_tasks in level_panels.TASK_SECTIONS:
+        level_panels.TASK_SECTIONS.remove(last_render_in_tasks)
     _unregister()
     if _icons:
         import bpy.utils.previews

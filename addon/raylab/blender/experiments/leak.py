@@ -30,9 +30,10 @@ def leak_test(scene):
     """Shoots rays from the centre of the level mesh's box through every vertex and every edge midpoint,
     the places where two triangles meet, with each triangle test. From inside a closed mesh every ray
     must hit; the ones that hit nothing leaked. Stores and returns {rays, one count per name in
-    api.TRIANGLE_TESTS, centre, escaped, mesh}: the box centre and the points where up to MAX_LEAKS_DRAWN escaped rays
-    of the leakiest test (spread over all of them) passed through (object space, flat lists), for the viewport to draw;
-    `mesh` is the mesh_fingerprint they belong to."""
+    api.TRIANGLE_TESTS, contracts, centre, escaped, mesh}: contracts counts the same rays' leaks through the BVH
+    under each contract (api.CONTRACTS: what the sidebar's Contract changes); the box centre and the points where
+    up to MAX_LEAKS_DRAWN escaped rays of the leakiest test (spread over all of them) passed through (object space,
+    flat lists), for the viewport to draw; `mesh` is the mesh_fingerprint they belong to."""
     obj = level_mesh_object(scene)
     if obj is None:
         raise LevelError("the scene is not a level (open one first)")
@@ -52,6 +53,9 @@ def leak_test(scene):
         result[test] = int(missed.sum())
         if missed.sum() > len(escaped):  # the viewport draws the leakiest test's escapes
             escaped = targets[keep][missed]
+    result["contracts"] = {contract: int((~api.build(vertices, triangles, structure="bvh", contract=contract)
+                                          .intersect(origins, directions[keep]).hit).sum())
+                           for contract in api.CONTRACTS}
     spread = np.linspace(0, len(escaped) - 1, min(len(escaped), MAX_LEAKS_DRAWN)).astype(int)
     result["escaped"] = escaped[spread].ravel().tolist()
     scene[LEAK_KEY] = result
@@ -95,8 +99,20 @@ def draw_results(layout, context):
     text_fit.label(box, context, f"Leak test: {leaks['rays']:,} rays from inside", 'MOD_FLUIDSIM', boxes=1)
     for test, info in api.TRIANGLE_TEST_INFO.items():
         text_fit.label(box, context, f"{info['label']}: {leaks[test]:,} leaked", boxes=1)
+    for line, icon in contract_lines(leaks, context.scene.raylab.contract):
+        text_fit.label(box, context, line, icon, boxes=1)
     if leak_segments(context.scene) is not None:
         text_fit.label(box, context, "Escaped rays: red in the viewport", 'INFO', boxes=1)
+
+
+def contract_lines(leaks, chosen):
+    """What each contract lets out through the BVH, the sidebar's Contract (`chosen`) marked: [(text, icon)]."""
+    contracts = leaks.get("contracts")
+    if not contracts:
+        return []  # a leak test from before contracts were counted
+    return [(f"BVH, {api.CONTRACT_INFO[name]['label']} contract: {contracts[name]:,} leaked"
+             + (" (the sidebar's Contract)" if name == chosen else ""), 'RIGHTARROW' if name == chosen else 'NONE')
+            for name in api.CONTRACTS if name in contracts]
 
 
 class RAYLAB_OT_level_leak_test(bpy.types.Operator):
