@@ -16,10 +16,23 @@ import numpy as np
 View3D = namedtuple("View3D", "window area region sidebar")
 
 
+class NoViewportYet(RuntimeError):
+    """The window shows no 3D viewport for a moment: on Blender 3.x a level switch after a render takes
+    the window to another workspace and back (levels/scene.py, the top bar). step_timer waits it out."""
+
+
+def viewport_shown():
+    window = bpy.context.window_manager.windows[0]
+    return any(a.type == 'VIEW_3D' for a in window.screen.areas)
+
+
 def view3d():
     """The largest 3D viewport of the first window: its area, main region and sidebar region."""
     window = bpy.context.window_manager.windows[0]
-    area = max((a for a in window.screen.areas if a.type == 'VIEW_3D'), key=lambda a: a.width * a.height)
+    areas = [a for a in window.screen.areas if a.type == 'VIEW_3D']
+    if not areas:
+        raise NoViewportYet(f"the window shows the workspace {window.workspace.name!r}, with no 3D viewport")
+    area = max(areas, key=lambda a: a.width * a.height)
     region = next(r for r in area.regions if r.type == 'WINDOW')
     sidebar = next(r for r in area.regions if r.type == 'UI')
     return View3D(window, area, region, sidebar)
@@ -156,10 +169,19 @@ def step_timer(steps, finish, report, interval=1.5, wait=1.0, error=None):
     window redraws in between, then `finish()`; an exception ends the run with report["error"] (or
     error(traceback)). A step that returns False is called again `wait` seconds later, one that returns
     a number (not a bool) that many seconds later."""
+    waits = [0]
+
     def run():
         try:
             step = steps.pop(0)
-            again = step()
+            try:
+                again = step()
+            except NoViewportYet:
+                waits[0] += 1
+                if waits[0] > 20:
+                    raise
+                steps.insert(0, step)
+                return wait
             if again is False or (isinstance(again, (int, float)) and not isinstance(again, bool)):
                 steps.insert(0, step)
                 return wait if again is False else again

@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import draw_lock_watch  # noqa: E402
 import session  # noqa: E402  (puts the checkout's add-on on sys.path)
 from blender_window import call_in_main_window, click_raylab_tab, screenshot, show_sidebar, start_f12, \
-    view3d  # noqa: E402
+    view3d, viewport_shown  # noqa: E402
 
 OUT_DIR = session.out_dir()
 report = {"runs": []}
@@ -86,6 +86,7 @@ def step(run, did, expect, **seen):
 def open_level(level_id):
     assert call_in_main_window(bpy.ops.raylab.level_open, level_id=level_id) == {'FINISHED'}
     yield 0.5  # let the window draw the new scene
+    yield from wait_until(viewport_shown, TICK_WAIT)  # after a render, 3.x's workspace round trip
     if not report.get("sidebar"):  # once: the sidebar keeps its tab from level to level
         show_sidebar()
         yield 1.0

@@ -4,6 +4,7 @@ level uses the probe, and the scene.raylab / scene.raylab_render settings; switc
 the level's mesh (the object, its place and every setting stay)."""
 import math
 import re
+import time
 import uuid
 
 import bpy
@@ -286,6 +287,8 @@ def _lay_out_top_bar_again(window):
     object mode and no pinned scene, so the round trip changes neither."""
     if bpy.app.version >= (4, 0, 0) or bpy.app.background or window.screen is None or window.screen.is_temporary:
         return  # (in the background no timer would bring the workspace back, and nothing is drawn)
+    if not any(image.type == 'RENDER_RESULT' for image in bpy.data.images):
+        return  # no render window was ever opened: the top bar is drawn
     workspace = window.workspace
     other = next((w for w in bpy.data.workspaces if w != workspace and not w.use_pin_scene
                   and w.object_mode == workspace.object_mode), None)
@@ -293,11 +296,19 @@ def _lay_out_top_bar_again(window):
         return
     window.workspace = other
     pointer, name = window.as_pointer(), workspace.name
+    deadline = time.monotonic() + 5.0
 
     def back():
+        # Blender applies a workspace change when it next handles its notifiers, which a timer may run
+        # before: until the window shows `other`, it tries again (a first version gave up, and the
+        # window stayed in the other workspace under load).
         for w in bpy.context.window_manager.windows:  # the window, if it is still open
-            if w.as_pointer() == pointer and w.workspace == other and name in bpy.data.workspaces:
+            if w.as_pointer() != pointer or name not in bpy.data.workspaces:
+                continue
+            if w.workspace == other:
                 w.workspace = bpy.data.workspaces[name]
+                return None
+            return 0.05 if time.monotonic() < deadline else None
         return None
     bpy.app.timers.register(back, first_interval=0.0)
 
