@@ -21,6 +21,7 @@ Pixels count x from the left and y from the top, as the probe does.
 """
 import dataclasses
 import functools
+import time
 
 import bpy
 import numpy as np
@@ -134,17 +135,20 @@ def close_picture(window):
         if area.as_pointer() in _split_areas and area.type == 'IMAGE_EDITOR' \
                 and getattr(area.spaces.active.image, "name", None) == IMAGE_NAME:
             _split_areas.discard(area.as_pointer())
-            bpy.app.timers.register(functools.partial(_close_area, area.as_pointer()), first_interval=0.0)
+            deadline = time.monotonic() + 5.0
+            bpy.app.timers.register(functools.partial(_close_area, area.as_pointer(), deadline), first_interval=0.0)
 
 
-def _close_area(pointer):
+def _close_area(pointer, deadline):
     for window in bpy.context.window_manager.windows:
         for area in window.screen.areas:
             if area.as_pointer() == pointer and area.type == 'IMAGE_EDITOR':
                 with bpy.context.temp_override(window=window, area=area):
                     bpy.ops.screen.area_close()
                 return None
-    return None
+    # Not on any window's screen for now: on Blender 3.x the level switch may have taken the window to
+    # another workspace for a moment (levels/scene.py, the top bar); its screen comes back.
+    return 0.05 if time.monotonic() < deadline else None
 
 
 def show_picture(context, image):
