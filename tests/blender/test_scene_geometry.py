@@ -81,8 +81,13 @@ def test_text_metaball_and_collection_instances_get_boxes(mixed_scene):
 def test_a_probe_ray_hits_the_text_and_a_collection_instance(mixed_scene):
     scene, text, instances, ray = mixed_scene
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    lo, hi = (np.array(text.evaluated_get(depsgraph).bound_box).min(0),
-              np.array(text.evaluated_get(depsgraph).bound_box).max(0))
+    # The evaluated geometry's own extent: a Text object's bound_box is its flat outline on Blender 5.2,
+    # without the mesh's thickness.
+    evaluated = text.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    points = np.array([v.co for v in mesh.vertices])
+    evaluated.to_mesh_clear()
+    lo, hi = points.min(0), points.max(0)
     # Down onto the letter T's top bar, well inside its glyph.
     target = np.array([(lo[0] + hi[0]) / 2, hi[1] - 0.05 * (hi[1] - lo[1]), hi[2]])
     aim(ray, target + (0.0, 0.0, 3.0), (0.0, 0.0, -1.0))
