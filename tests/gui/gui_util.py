@@ -142,6 +142,16 @@ class Region:
         return self.height - 1 - int(round(y)), int(round(x))
 
 
+def off_on_shots(script, name, blend, **options):
+    """Runs a session that takes `name`_off.png and `name`_on.png of the same view (a drawing switched
+    off, then on) and writes `name`.json with the view's "region": the report and both crops."""
+    report = run_session(script, f"{name}.json", blend, outputs=(f"{name}_off.png", f"{name}_on.png"), **options)
+    stem = os.path.join(OUT, name)
+    off, on = load_rgb(stem + "_off.png"), load_rgb(stem + "_on.png")
+    region = Region(report["region"], off.shape[0])
+    return report, region.crop(off), region.crop(on)
+
+
 def changed(before, after, threshold=0.03):
     """Pixels whose colour differs between two screenshots of the same view."""
     return np.abs(after - before).max(axis=-1) > threshold

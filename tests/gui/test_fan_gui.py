@@ -1,7 +1,6 @@
 """The probe's fan at its largest (64 x 64 = 4,096 rays) in a real Blender window under Xvfb: the fan is
 drawn, and the mesh stays visible under it (issue 12: every ray drawn as a line covered the whole view).
 Runs fan_shot.py inside Blender on the demo scene; the screenshots land in out/gui/fan_off.png, fan_on.png."""
-import os
 
 import numpy as np
 import pytest
@@ -22,13 +21,8 @@ def goat_mask(rgb):
 
 @pytest.fixture(scope="module")
 def fan_shots(tmp_path_factory):
-    stem = os.path.join(gui_util.OUT, "fan")
     blend = gui_util.demo_blend(str(tmp_path_factory.mktemp("fan") / "demo.blend"))
-    report = gui_util.run_session("fan_shot.py", "fan.json", blend, outputs=("fan_off.png", "fan_on.png"),
-                                  extra=("--python-exit-code", "1"))
-    off, on = gui_util.load_rgb(stem + "_off.png"), gui_util.load_rgb(stem + "_on.png")
-    region = gui_util.Region(report["region"], off.shape[0])
-    return report, region.crop(off), region.crop(on)
+    return gui_util.off_on_shots("fan_shot.py", "fan", blend, extra=("--python-exit-code", "1"))
 
 
 def test_the_fan_is_drawn_as_a_sample_of_lines(fan_shots):

@@ -1,7 +1,6 @@
 """Issue 42 item 1 in a real Blender window under Xvfb: a Text object and a collection instance, which F12
 renders, get the BVH's boxes in the viewport and a probe hit. Runs text_boxes_shot.py; the screenshots land
 in out/gui/text_boxes_off.png and text_boxes_on.png."""
-import os
 
 import pytest
 
@@ -10,13 +9,8 @@ import gui_util
 
 @pytest.fixture(scope="module")
 def text_boxes(tmp_path_factory):
-    stem = os.path.join(gui_util.OUT, "text_boxes")
-    report = gui_util.run_session("text_boxes_shot.py", "text_boxes.json",
-                                  gui_util.start_blend(tmp_path_factory.mktemp("text_boxes")),
-                                  outputs=("text_boxes_off.png", "text_boxes_on.png"))
-    off, on = gui_util.load_rgb(stem + "_off.png"), gui_util.load_rgb(stem + "_on.png")
-    region = gui_util.Region(report["region"], off.shape[0])
-    return report, region.crop(off), region.crop(on)
+    return gui_util.off_on_shots("text_boxes_shot.py", "text_boxes",
+                                 gui_util.start_blend(tmp_path_factory.mktemp("text_boxes")))
 
 
 def test_the_text_and_the_collection_instance_get_boxes(text_boxes):
