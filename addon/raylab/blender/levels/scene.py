@@ -279,13 +279,14 @@ def _drop_name_suffixes(scene):
 
 
 def _lay_out_top_bar_again(window):
-    """Blender 3.4 draws a window's top bar (File, Edit, Render..., the workspace tabs) empty once its scene
-    has a name of 16 or more characters after a render window was opened and closed (with Workbench and no
-    add-on too: a rename is enough), and a level scene's name is that long; it stays empty until the
+    """Blender 3.4 and 4.3 (not 5.2) draw a window's top bar (File, Edit, Render..., the workspace tabs)
+    empty once its scene has a name of 16 or more characters after a render window was opened and closed
+    (with Workbench and no add-on too: a rename is enough), and a level scene's name is that long; it stays
+    empty until the
     workspace changes (issue 40; tests/gui/test_top_bar_gui.py). So the window goes to another workspace
     and, one timer tick later, back: Blender lays the top bar out again. The other workspace shows this
     object mode and no pinned scene, so the round trip changes neither."""
-    if bpy.app.version >= (4, 0, 0) or bpy.app.background or window.screen is None or window.screen.is_temporary:
+    if bpy.app.version >= (5, 2, 0) or bpy.app.background or window.screen is None or window.screen.is_temporary:
         return  # (in the background no timer would bring the workspace back, and nothing is drawn)
     if not any(image.type == 'RENDER_RESULT' for image in bpy.data.images):
         return  # no render window was ever opened: the top bar is drawn
