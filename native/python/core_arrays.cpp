@@ -189,8 +189,7 @@ std::vector<Ray> rays_from_arrays(py::handle origins, py::handle directions, py:
 }
 
 void require_real_dtype(const py::array& a, const std::string& what) {
-  const char k = a.dtype().kind();
-  if (k != 'f' && k != 'i' && k != 'u')
+  if (!real_dtype(a))
     throw std::invalid_argument(what + " must have a real number dtype (float32 preferred), got " +
                                 std::string(py::str(a.dtype())));
 }

@@ -44,6 +44,12 @@ Contiguous<T> converted(py::handle value, const std::string& what) {
   }
 }
 
+// Whether `a` holds real numbers: float, signed or unsigned integers (not bool, complex, object, text).
+inline bool real_dtype(const py::array& a) {
+  const char k = a.dtype().kind();
+  return k == 'f' || k == 'i' || k == 'u';
+}
+
 // `value` converted as converted() says when numpy reads it as an array of real numbers; nothing when
 // it does not (the caller says which shape it wanted).
 template <class T>
@@ -51,8 +57,7 @@ std::optional<Contiguous<T>> real_array(py::handle value, const std::string& wha
   if (value.is_none()) return std::nullopt;
   py::array a = py::array::ensure(value);  // a null handle when numpy cannot make an array of it
   if (!a) return std::nullopt;
-  const char k = a.dtype().kind();
-  if (k != 'f' && k != 'i' && k != 'u') return std::nullopt;
+  if (!real_dtype(a)) return std::nullopt;
   return converted<T>(a, what);
 }
 
