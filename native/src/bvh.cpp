@@ -326,15 +326,6 @@ size_t Bvh::memory_bytes() const {
          binary_depth_.capacity();
 }
 
-bool Bvh::coherent(const Ray& first, const Ray& ray, float origin_limit) {
-  const float d = glm::dot(first.direction, ray.direction);
-  const glm::vec3 o = ray.origin - first.origin;
-  return d > 0.0f &&
-         d * d >= kPacketCosine * kPacketCosine * glm::dot(first.direction, first.direction) *
-                      glm::dot(ray.direction, ray.direction) &&
-         glm::dot(o, o) <= origin_limit;
-}
-
 void Bvh::closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCounts* counts,
                         std::span<TraversalStats> per_ray) const {
   if (hits.size() != rays.size()) throw std::invalid_argument("hits and rays differ in length");

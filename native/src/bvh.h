@@ -108,9 +108,56 @@ class Bvh final : public StructureBase<Bvh> {
                       std::span<TraversalStats> per_ray = {}) const;
   void any_packet(std::span<const Ray> rays, std::span<uint8_t> occluded, PacketCounts* counts = nullptr,
                   std::span<TraversalStats> per_ray = {}) const;
-  // Whether `ray` may join a group that `first` starts (the rule above); `origin_limit` is
-  // kPacketOriginSpread times the root box's diagonal, squared.
-  static bool coherent(const Ray& first, const Ray& ray, float origin_limit);
+  // The rule above for a group that `first` starts: takes(ray), whether `ray` may join it (first's part
+  // computed once); `origin_limit` is kPacketOriginSpread times the root box's diagonal, squared.
+  struct Coherence {
+    glm::vec3 origin, direction;
+    float cone;  // kPacketCosine^2 |d0|^2
+    float origin_limit;
+    Coherence(const Ray& first, float limit)
+        : origin(first.origin),
+          direction(first.direction),
+          cone(kPacketCosine * kPacketCosine * glm::dot(first.direction, first.direction)),
+          origin_limit(limit) {}
+    bool takes(const Ray& ray) const {
+      const float d = glm::dot(direction, ray.direction);
+      const glm::vec3 o = ray.origin - origin;
+      return d > 0.0f && d * d >= cone * glm::dot(ray.direction, ray.direction) && glm::dot(o, o) <= origin_limit;
+    }
+    // takes() of rays[0..8) as bit r (four at a time, the same operations in the same order).
+    uint32_t takes8(const Ray* rays) const {
+      static_assert(sizeof(Ray) == 32 && offsetof(Ray, direction) == 16);
+      uint32_t mask = 0;
+      for (int half = 0; half < 2; ++half) {
+        const Ray* r = rays + 4 * half;
+        // Rows (x, y, z, tmin) and (x, y, z, tmax) of four rays to columns x, y, z.
+        const auto columns = [](const float* r0, const float* r1, const float* r2, const float* r3, __m128* c) {
+          const __m128 a = _mm_unpacklo_ps(_mm_loadu_ps(r0), _mm_loadu_ps(r1));  // x0 x1 y0 y1
+          const __m128 b = _mm_unpacklo_ps(_mm_loadu_ps(r2), _mm_loadu_ps(r3));  // x2 x3 y2 y3
+          c[0] = _mm_movelh_ps(a, b);
+          c[1] = _mm_movehl_ps(b, a);
+          c[2] = _mm_movelh_ps(_mm_unpackhi_ps(_mm_loadu_ps(r0), _mm_loadu_ps(r1)),
+                               _mm_unpackhi_ps(_mm_loadu_ps(r2), _mm_loadu_ps(r3)));
+        };
+        __m128 o[3], d[3];
+        columns(&r[0].origin.x, &r[1].origin.x, &r[2].origin.x, &r[3].origin.x, o);
+        columns(&r[0].direction.x, &r[1].direction.x, &r[2].direction.x, &r[3].direction.x, d);
+        const auto dot = [](__m128 ax, __m128 ay, __m128 az, __m128 bx, __m128 by, __m128 bz) {
+          return _mm_add_ps(_mm_add_ps(_mm_mul_ps(ax, bx), _mm_mul_ps(ay, by)), _mm_mul_ps(az, bz));
+        };
+        const __m128 cos_d = dot(_mm_set1_ps(direction.x), _mm_set1_ps(direction.y), _mm_set1_ps(direction.z), d[0],
+                                 d[1], d[2]);
+        const __m128 ox = _mm_sub_ps(o[0], _mm_set1_ps(origin.x)), oy = _mm_sub_ps(o[1], _mm_set1_ps(origin.y)),
+                     oz = _mm_sub_ps(o[2], _mm_set1_ps(origin.z));
+        const __m128 in_cone = _mm_and_ps(
+            _mm_cmpgt_ps(cos_d, _mm_setzero_ps()),
+            _mm_cmpge_ps(_mm_mul_ps(cos_d, cos_d), _mm_mul_ps(_mm_set1_ps(cone), dot(d[0], d[1], d[2], d[0], d[1], d[2]))));
+        const __m128 near = _mm_cmple_ps(dot(ox, oy, oz, ox, oy, oz), _mm_set1_ps(origin_limit));
+        mask |= uint32_t(_mm_movemask_ps(_mm_and_ps(in_cone, near))) << (4 * half);
+      }
+      return mask;
+    }
+  };
 
   // Box ids, as in boxes() and the story: node n is id n (0 the root), leaf k (in packet order)
   // is id node_count + k.

@@ -41,57 +41,88 @@ struct PacketLanes {
   alignas(32) float tmin[8];
 };
 
+// One box (corner a at lo[a * stride], hi[a * stride]) against the eight lanes, each with its far
+// limit in `limit`: the lanes that hit it, their entry distances in t_near. intersect_box8's operations:
+RAYLAB_AVX2 [[gnu::always_inline]] inline uint32_t box_lanes_exact(const PacketLanes& p, const float* lo,
+                                                                   const float* hi, size_t stride, __m256 limit,
+                                                                   __m256& t_near) {
+  const __m256 pad = _mm256_load_ps(p.pad);
+  t_near = _mm256_load_ps(p.tmin);
+  __m256 t_far = _mm256_set1_ps(kInfinity);
+  for (int a = 0; a < 3; ++a) {
+    const __m256 o = _mm256_load_ps(p.a[a]), inv = _mm256_load_ps(p.b[a]);
+    const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(lo[a * stride]), o), pad), inv);
+    const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_set1_ps(hi[a * stride]), o), pad), inv);
+    const __m256 near = _mm256_min_ps(t1, t0);
+    const __m256 far = _mm256_max_ps(t0, t1);
+    t_near = _mm256_max_ps(near, t_near);
+    t_far = _mm256_min_ps(far, t_far);
+  }
+  t_far = _mm256_min_ps(_mm256_mul_ps(t_far, _mm256_set1_ps(kBoxFarScale)), limit);
+  return uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ)));
+}
+
+// fast_box8's:
+RAYLAB_AVX2_FMA [[gnu::always_inline]] inline uint32_t box_lanes_fast(const PacketLanes& p, const float* lo,
+                                                                      const float* hi, size_t stride, __m256 limit,
+                                                                      __m256& t_near) {
+  t_near = _mm256_load_ps(p.tmin);
+  __m256 t_far = limit;
+  for (int a = 0; a < 3; ++a) {
+    const __m256 rdir = _mm256_load_ps(p.a[a]), org_rdir = _mm256_load_ps(p.b[a]);
+    const __m256 t0 = _mm256_fmsub_ps(_mm256_set1_ps(lo[a * stride]), rdir, org_rdir);
+    const __m256 t1 = _mm256_fmsub_ps(_mm256_set1_ps(hi[a * stride]), rdir, org_rdir);
+    t_near = _mm256_max_ps(t_near, _mm256_min_ps(t0, t1));
+    t_far = _mm256_min_ps(t_far, _mm256_max_ps(t0, t1));
+  }
+  return uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ)));
+}
+
 // Tests the used children of `node` against the lanes of `lanes` (each lane's far limit in `tmax`):
 // writes t_entry[child][lane] and hit_by[child] (the lanes among `lanes` that hit it) and returns the
-// lanes that hit any child. intersect_box8's operations:
+// lanes that hit any child.
 RAYLAB_AVX2 inline uint32_t packet_node_exact(const Bvh8Node& node, const PacketLanes& p, const float* tmax,
                                               uint32_t lanes, float (*t_entry)[8], uint32_t* hit_by) {
-  const __m256 pad = _mm256_load_ps(p.pad), tmin = _mm256_load_ps(p.tmin), limit = _mm256_load_ps(tmax);
-  const __m256 scale = _mm256_set1_ps(kBoxFarScale);
+  const __m256 limit = _mm256_load_ps(tmax);
   uint32_t any = 0;
   for (int i = 0; i < 8; ++i) {
     hit_by[i] = 0;
     if (!node.used(i)) continue;
-    __m256 t_near = tmin;
-    __m256 t_far = _mm256_set1_ps(kInfinity);
-    for (int a = 0; a < 3; ++a) {
-      const __m256 o = _mm256_load_ps(p.a[a]), inv = _mm256_load_ps(p.b[a]);
-      const __m256 t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(node.lo[a][i]), o), pad), inv);
-      const __m256 t1 = _mm256_mul_ps(_mm256_add_ps(_mm256_sub_ps(_mm256_set1_ps(node.hi[a][i]), o), pad), inv);
-      const __m256 near = _mm256_min_ps(t1, t0);
-      const __m256 far = _mm256_max_ps(t0, t1);
-      t_near = _mm256_max_ps(near, t_near);
-      t_far = _mm256_min_ps(far, t_far);
-    }
-    t_far = _mm256_min_ps(_mm256_mul_ps(t_far, scale), limit);
+    __m256 t_near;
+    hit_by[i] = box_lanes_exact(p, &node.lo[0][i], &node.hi[0][i], 8, limit, t_near) & lanes;
     _mm256_store_ps(t_entry[i], t_near);
-    hit_by[i] = uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ))) & lanes;
     any |= hit_by[i];
   }
   return any;
 }
 
-// fast_box8's:
 RAYLAB_AVX2_FMA inline uint32_t packet_node_fast(const Bvh8Node& node, const PacketLanes& p, const float* tmax,
                                                  uint32_t lanes, float (*t_entry)[8], uint32_t* hit_by) {
-  const __m256 tmin = _mm256_load_ps(p.tmin), limit = _mm256_load_ps(tmax);
+  const __m256 limit = _mm256_load_ps(tmax);
   uint32_t any = 0;
   for (int i = 0; i < 8; ++i) {
     hit_by[i] = 0;
     if (!node.used(i)) continue;
-    __m256 t_near = tmin, t_far = limit;
-    for (int a = 0; a < 3; ++a) {
-      const __m256 rdir = _mm256_load_ps(p.a[a]), org_rdir = _mm256_load_ps(p.b[a]);
-      const __m256 t0 = _mm256_fmsub_ps(_mm256_set1_ps(node.lo[a][i]), rdir, org_rdir);
-      const __m256 t1 = _mm256_fmsub_ps(_mm256_set1_ps(node.hi[a][i]), rdir, org_rdir);
-      t_near = _mm256_max_ps(t_near, _mm256_min_ps(t0, t1));
-      t_far = _mm256_min_ps(t_far, _mm256_max_ps(t0, t1));
-    }
+    __m256 t_near;
+    hit_by[i] = box_lanes_fast(p, &node.lo[0][i], &node.hi[0][i], 8, limit, t_near) & lanes;
     _mm256_store_ps(t_entry[i], t_near);
-    hit_by[i] = uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(t_near, t_far, _CMP_LE_OQ))) & lanes;
     any |= hit_by[i];
   }
   return any;
+}
+
+// The lanes among `lanes` that hit the root box `root`, tested as its children are (a ray that misses
+// it misses every child: their padded boxes lie inside its padded box, and every step of the test is
+// monotonic in the box's corners).
+RAYLAB_AVX2 inline uint32_t packet_root_exact(const Bounds& root, const PacketLanes& p, const float* tmax,
+                                              uint32_t lanes) {
+  __m256 t_near;
+  return box_lanes_exact(p, &root.lo[0], &root.hi[0], 1, _mm256_load_ps(tmax), t_near) & lanes;
+}
+RAYLAB_AVX2_FMA inline uint32_t packet_root_fast(const Bounds& root, const PacketLanes& p, const float* tmax,
+                                                 uint32_t lanes) {
+  __m256 t_near;
+  return box_lanes_fast(p, &root.lo[0], &root.hi[0], 1, _mm256_load_ps(tmax), t_near) & lanes;
 }
 
 // intersect_box4's, on the eight lanes four at a time (SSE):
@@ -307,10 +338,23 @@ template <class Width, bool kClosest, bool kSameOrder, bool kCount>
       fill_lane<kFast>(lanes, r, BoxRay(ray, direction[r], root_bounds_));
     }
   }
+  for (int r = 0; r < K; ++r) limit[r] = rays[r < n ? r : 0].tmax;
+  if constexpr (Node::kWidth == 8 && !kCount) {
+    // Uncounted, the single walk does not test the root box (bvh.h): a packet that misses it whole,
+    // the camera's sky, leaves here after one box test instead of the root's eight.
+    uint32_t entered;
+    if constexpr (kFast) entered = packet_root_fast(root_bounds_, lanes, limit, all);
+    else entered = packet_root_exact(root_bounds_, lanes, limit, all);
+    if (entered == 0) {
+      for (int r = 0; r < n; ++r) out[r] = 0;
+      return 0;
+    }
+    all = entered;
+    e.rays = all;
+  }
   for (int r = 0; r < K; ++r) {
     const Ray& ray = rays[r < n ? r : 0];
     best[r] = initial_hit(ray);
-    limit[r] = ray.tmax;
     e.t_entry[r] = ray.tmin;
   }
   // Each ray's triangle constants, made when it first reaches a leaf (most rays of a camera miss).
@@ -542,9 +586,18 @@ void Bvh::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* out, Packet
       kPacketOriginSpread * glm::length(root_bounds_.empty() ? glm::vec3(0.0f) : root_bounds_.hi - root_bounds_.lo);
   const float origin_limit = spread * spread;
   for (size_t i = 0; i < rays.size();) {
+    const Coherence group(rays[i], origin_limit);
     size_t n = 1;
-    while (n < size_t(kPacketSize) && i + n < rays.size() && coherent(rays[i], rays[i + n], origin_limit)) ++n;
-    if (n >= size_t(kMinPacket) && coherent(rays[i], rays[i], origin_limit)) {
+    bool first_usable;  // a NaN makes takes() false, even of the first ray
+    if (i + kPacketSize <= rays.size()) {
+      const uint32_t takes = group.takes8(&rays[i]);
+      n += size_t(std::countr_one(takes >> 1));
+      first_usable = takes & 1;
+    } else {
+      while (n < size_t(kPacketSize) && i + n < rays.size() && group.takes(rays[i + n])) ++n;
+      first_usable = group.takes(rays[i]);
+    }
+    if (n >= size_t(kMinPacket) && first_usable) {
       trace_packet<kClosest>(&rays[i], int(n), kClosest ? &hits[i] : nullptr, kClosest ? nullptr : &out[i], counts,
                              per_ray ? &per_ray[i] : nullptr);
       i += n;

@@ -4,12 +4,34 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstring>
 #include <new>
 #include <span>
 
 namespace raylab {
 
 namespace {
+
+uint32_t bits_of(const float* p) {
+  uint32_t bits;
+  std::memcpy(&bits, p, sizeof(bits));
+  return bits;
+}
+
+// Whether any of n floats from p is NaN or infinite (an unsigned minimum: the loop vectorizes).
+bool any_not_finite(const float* p, size_t n) {
+  uint32_t least = ~0u;
+  for (size_t k = 0; k < n; ++k) least = std::min(least, (bits_of(p + k) & 0x7f800000u) ^ 0x7f800000u);
+  return least == 0;
+}
+
+// Whether any of `rows` rows of three floats from p is zero (+0 or -0 in each coordinate).
+bool any_zero_row(const float* p, size_t rows) {
+  uint32_t least = ~0u;
+  for (size_t i = 0; i < rows; ++i)
+    least = std::min(least, (bits_of(p + 3 * i) | bits_of(p + 3 * i + 1) | bits_of(p + 3 * i + 2)) & 0x7fffffffu);
+  return least == 0;
+}
 
 // The first unusable ray, or rows.count.
 size_t first_unusable(const RayRows& rows) {
@@ -31,15 +53,11 @@ size_t trace_rows(const RayRows& rows, int threads, Trace trace) {
     for (size_t first = begin; first < end; first += kRayChunk) {
       if (refused.load(std::memory_order_relaxed)) return;
       const size_t last = std::min(end, first + kRayChunk);
-      bool usable = true;
-      for (size_t i = first; i != last; ++i) {
-        usable &= rows.usable(i);
-        new (&rays[i - first]) Ray(rows.ray(i));
-      }
-      if (!usable) {
+      if (!rows.usable_range(first, last)) {
         refused.store(true, std::memory_order_relaxed);
         return;
       }
+      for (size_t i = first; i != last; ++i) new (&rays[i - first]) Ray(rows.ray(i));
       trace(first, std::span<const Ray>(rays, last - first));
     }
   });
@@ -49,7 +67,8 @@ size_t trace_rows(const RayRows& rows, int threads, Trace trace) {
 template <class Target>
 size_t closest_rows_of(const Target& target, const RayRows& rows, const HitColumns& out, int threads) {
   return trace_rows(rows, threads, [&](size_t first, std::span<const Ray> rays) {
-    Hit hits[kRayChunk];
+    alignas(Hit) unsigned char storage[kRayChunk * sizeof(Hit)];  // the batch query writes every hit
+    Hit* hits = reinterpret_cast<Hit*>(storage);
     target.closest_batch(rays, std::span<Hit>(hits, rays.size()));
     write_hits(out, first, std::span<const Hit>(hits, rays.size()));
   });
@@ -66,6 +85,13 @@ size_t any_rows_of(const Target& target, const RayRows& rows, bool* occluded, in
 }
 
 }  // namespace
+
+bool RayRows::usable_range(size_t first, size_t last) const {
+  const size_t n = last - first;
+  const size_t origin_rows = origin_stride != 0 ? n : 1, direction_rows = direction_stride != 0 ? n : 1;
+  return !any_not_finite(origin(first), 3 * origin_rows) && !any_not_finite(direction(first), 3 * direction_rows) &&
+         !any_zero_row(direction(first), direction_rows);
+}
 
 void write_hits(const HitColumns& out, size_t first, std::span<const Hit> hits) {
   for (size_t k = 0; k < hits.size(); ++k) {

@@ -14,7 +14,8 @@
 
 namespace raylab {
 
-// Origins and directions as rows of three floats; a stride of 0 shares one row between every ray.
+// Origins and directions as consecutive rows of three floats (stride 3), or one row shared by every ray
+// (stride 0).
 struct RayRows {
   const float* origins = nullptr;
   size_t origin_stride = 3;
@@ -32,6 +33,10 @@ struct RayRows {
     const float zeros = (o[0] * 0.0f + o[1] * 0.0f) + (o[2] * 0.0f + d[0] * 0.0f) + (d[1] * 0.0f + d[2] * 0.0f);
     return zeros == 0.0f && (d[0] != 0.0f || d[1] != 0.0f || d[2] != 0.0f);
   }
+  // Whether every ray of [first, last) is usable, as usable() says, in loops the compiler vectorizes
+  // (a float is NaN or infinite exactly when its exponent bits are all ones): the door's check costs a
+  // ray a few instructions.
+  bool usable_range(size_t first, size_t last) const;
   Ray ray(size_t i) const {
     const float *o = origin(i), *d = direction(i);
     Ray r;
