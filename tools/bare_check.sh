@@ -4,14 +4,17 @@
 # raylab's build dependencies (no TBB, no OpenImageIO, no compiler), must import, trace
 # rays, and resolve every library either to its own bundle or to the base system.
 #
-#   tools/bare_check.sh ROOT_NAME SUITE
+#   tools/bare_check.sh [--ensure] ROOT_NAME SUITE    (--ensure: only make the root)
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+only_ensure=0
+[ "${1:-}" = "--ensure" ] && { only_ensure=1; shift; }
 name="$1" suite="$2"
 WHEELS="$(dirname "$HERE")/out/wheels"
 ROOTS="${RAYLAB_ROOTS:-/var/cache/raylab}"
 
 "$HERE/debian_root.sh" ensure "$name" "$suite" python3 python3-numpy
+[ $only_ensure -eq 1 ] && exit 0
 dir="$ROOTS/$name"
 tag=$(chroot "$dir" /usr/bin/python3 -c "import sys; print('cp%d%d' % sys.version_info[:2])")
 wheel=$(ls "$WHEELS"/raylab_core-*-"$tag"-"$tag"-*.whl 2>/dev/null | head -1)
