@@ -290,6 +290,19 @@ RAYLAB_AVX2 inline void fill_lanes8(const Ray* rays, int n, const Bounds& root, 
   _mm256_store_ps(lanes.tmin, tmin);
 }
 
+// The rays among rays[0..n) (1 <= n <= 8) whose own box test of `root` (intersect_box with
+// BoxRay(ray, root), within [tmin, tmax]) hits it: bit r for ray r, the lanes computing what each
+// ray's test computes. The scene's batches let a group of rays that all miss its top level go with
+// one test per eight rays. Needs AVX2 (cpu_has_avx2).
+RAYLAB_AVX2 inline uint32_t rays_entering(const Ray* rays, int n, const Bounds& root) {
+  PacketLanes lanes;
+  glm::vec3 direction[8];
+  fill_lanes8<false>(rays, n, root, lanes, direction);
+  alignas(32) float tmax[8];
+  for (int r = 0; r < 8; ++r) tmax[r] = rays[r < n ? r : 0].tmax;
+  return packet_root_exact(root, lanes, tmax, (1u << n) - 1);
+}
+
 // Traces rays[0..n) (1 <= n <= kPacketSize) and writes out[r] (found / occluded) and, closest, hits[r]
 // where found. Returns the rays that left the packet (kSameOrder) and finished alone.
 // Counted (kCount), every ray records what its recorded single walk records: its query, the root box

@@ -3,6 +3,7 @@
 #include "batch.h"
 #include "box_intersection.h"
 #include "bvh.h"
+#include "bvh_packets.h"
 #include "raylab/refit.h"
 
 #include <algorithm>
@@ -326,8 +327,23 @@ void SceneSnapshot::trace_batch(std::span<const Ray> rays, Hit* hits, uint8_t* o
   std::vector<Hit> object_hits;
   std::vector<uint8_t> object_found;
   std::vector<TraversalStats> object_counts;
+  // Uncounted, a group whose rays all miss the top level's root box (the camera's sky) is answered
+  // after one lane-wise test of that box per eight rays instead of each ray's own walk.
+  const bool cull = !kCount && uses_top_level() && !top_->nodes.empty() && cpu_has_avx2();
   for (size_t g = 0; g < rays.size(); g += kGroup) {
     const size_t n = std::min(kGroup, rays.size() - g);
+    if (cull) {
+      uint32_t entering = 0;
+      for (size_t b = 0; b < n && entering == 0; b += 8)
+        entering |= rays_entering(&rays[g + b], int(std::min<size_t>(8, n - b)), top_->nodes[0].bounds());
+      if (entering == 0) {
+        for (size_t r = 0; r < n; ++r) {
+          if constexpr (kClosest) hits[g + r] = Hit{};
+          else occluded[g + r] = 0;
+        }
+        continue;
+      }
+    }
     lanes.clear();
     for (size_t r = 0; r < n; ++r) {
       Lane& lane = lanes.emplace_back(rays[g + r], *top_);
