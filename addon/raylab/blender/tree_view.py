@@ -736,9 +736,9 @@ def node_lines(tree, node, reset=False):
     return lines
 
 
-class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
+class _TreePanel:
+    """The Tree panel: the tree view's checkbox in its header, its settings and the picked node."""
     bl_label = "Tree"
-    bl_options = {'DEFAULT_CLOSED'}
 
     def draw_header(self, context):
         self.layout.prop(context.scene.raylab_tree, "enabled", text="")
@@ -753,9 +753,36 @@ class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
         draw_picked_node(layout, context)
 
 
+def in_level(context):
+    """Whether the open level teaches with the tree view (it sets the tree view's settings, as Why SAH?
+    does): there the Tree panel is the level's, right under its tasks."""
+    level = level_panels.current_level(context)
+    return level is not None and bool(level.settings.get("raylab_tree"))
+
+
+class RAYLAB_PT_tree(_TreePanel, viewport_panels.SidebarPanel, bpy.types.Panel):
+    """The Tree panel of the sidebar's raylab tab, closed at its bottom: the structures' other panels come
+    first. Hidden in a level that teaches the tree, where RAYLAB_PT_level_tree shows it."""
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return not in_level(context)
+
+
+class RAYLAB_PT_level_tree(_TreePanel, level_panels.OpenLevelPanel, bpy.types.Panel):
+    """The Tree panel where a level that teaches the tree needs it: a sub-panel of Levels, right under the
+    Tasks (level_panels.TASKS_ORDER + 1) and open the first time it shows. Blender keeps its open or closed
+    state in the screen, so a student who closes it finds it closed when the level opens again."""
+    bl_order = level_panels.TASKS_ORDER + 1
+
+    @classmethod
+    def poll(cls, context):
+        return in_level(context)
+
+
 def draw_picked_node(layout, context):
-    """The picked node's lines, the walk buttons and its split: the Tree panel's, and the level's Tasks
-    panel's while the level asks for the tree view (tasks_section)."""
+    """The picked node's lines, the walk buttons and its split (the Tree panel's)."""
     obj, tree = known_tree(context)
     if obj is None:
         text_fit.label(layout, context, tree, 'INFO')
@@ -782,30 +809,16 @@ def draw_picked_node(layout, context):
                                         f"{sah_cost.in_tests(splits['leaf_cost']):.4g}", 'MOD_EDGESPLIT')
 
 
-CLASSES = (TreeSettings, RAYLAB_OT_tree_walk, RAYLAB_OT_tree_click, RAYLAB_OT_tree_key, RAYLAB_PT_tree)
+CLASSES = (TreeSettings, RAYLAB_OT_tree_walk, RAYLAB_OT_tree_click, RAYLAB_OT_tree_key, RAYLAB_PT_tree,
+           RAYLAB_PT_level_tree)
 _handles = []
 _keymaps = []
-
-
-def shows_in_tasks(context):
-    """Whether the open level's Tasks panel draws the picked node: the level puts the tree view among its
-    controls and it is on (the Tree panel sits closed at the sidebar's bottom)."""
-    level = level_panels.current_level(context)
-    return (level is not None and "raylab_tree.enabled" in level.controls
-            and context.scene.raylab_tree.enabled)
-
-
-def tasks_section(layout, context):
-    """A level_panels.TASK_SECTIONS hook: the picked node where the level's tasks are."""
-    if shows_in_tasks(context):
-        draw_picked_node(layout, context)
 
 
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     bpy.types.Scene.raylab_tree = PointerProperty(type=TreeSettings)
-    level_panels.TASK_SECTIONS.append(tasks_section)
     overlay.DIMMERS.append(dimming)
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_picked_boxes, (), 'WINDOW', 'POST_VIEW'))
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_tree_view, (), 'WINDOW', 'POST_PIXEL'))
@@ -824,8 +837,6 @@ def register():
 
 
 def unregister():
-    if tasks_section in level_panels.TASK_SECTIONS:
-        level_panels.TASK_SECTIONS.remove(tasks_section)
     for keymap, item in _keymaps:
         keymap.keymap_items.remove(item)
     _keymaps.clear()
