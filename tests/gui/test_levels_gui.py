@@ -18,7 +18,7 @@ LEAK_LEVEL = "where_methods_fail"  # shot before and after Count Leaking Rays
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
     stale = [f"level_{level}{suffix}.png" for level in (*LEVELS, LEAK_LEVEL)
-             for suffix in ("", "_boxes_off", "_probe_off", "_leaks")]
+             for suffix in ("", "_boxes_off", "_probe_off", "_leaks", "_leaks_fast")]
     return run_session("levels_shots.py", "levels_shots.json", start_blend(tmp_path_factory.mktemp("levels")),
                        (*LEVELS, LEAK_LEVEL), outputs=stale, extra=["--enable-event-simulate"])["levels"]
 
@@ -99,3 +99,20 @@ def test_count_leaking_rays_draws_the_escaped_rays_in_red(shots):
     rays = dilate(segments_mask(region, entry["leak_segments"], after.shape[:2]), 4)
     assert (red & rays).sum() / red.sum() > 0.9
     assert (drawn & rays).sum() / drawn.sum() > 0.8
+
+
+def test_the_fast_contract_s_escaped_rays_turn_up_in_orange(shots):
+    """Issue 42 item 7: switching the sidebar's Contract changed nothing in the viewport. Under the fast
+    contract, the rays the BVH lets out are drawn in orange (the price chart's colour of the fast contract)
+    where the test projects them; under the exact one there were none."""
+    entry = shots[LEAK_LEVEL]
+    region, (exact, fast) = images(shots, LEAK_LEVEL, "_leaks", "_leaks_fast")
+    inside = viewport_mask(entry, region, fast.shape[:2])
+
+    def orange(image):
+        return (image[..., 0] > 0.8) & (image[..., 1] > 0.3) & (image[..., 1] < 0.65) & (image[..., 2] < 0.25) & inside
+
+    new = orange(fast) & ~orange(exact)
+    assert new.sum() > 300, "no orange rays in the viewport after switching Contract to Fast"
+    rays = dilate(segments_mask(region, entry["fast_contract_segments"], fast.shape[:2]), 4)
+    assert (new & rays).sum() / new.sum() > 0.9

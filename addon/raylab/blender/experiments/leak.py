@@ -6,9 +6,16 @@ Tasks panel.
 
 The overlay: after Count Leaking Rays, the rays that Möller–Trumbore let out of the closed level mesh
 are drawn in red, from the centre of the mesh's box out through the vertex or edge where they slipped
-between two triangles (a yellow dot), and on beyond the surface. Drawn through the mesh: the rays start
-inside it.
+between two triangles (a yellow dot), and on beyond the surface; over them, in the price chart's colour of
+the fast contract, the rays the BVH lets out under the sidebar's Contract (none under the exact one).
+Drawn through the mesh: the rays start inside it.
+
+The same rays give this mesh's point on the price chart (levels/where_methods_fail/diagrams/bench_price.png:
+wrong answers per million hostile rays against speed): each contract's leaks per million of them, and its
+rays per second through the BVH against the exact contract's, measured on them here.
 """
+import time
+
 import bpy
 import numpy as np
 
@@ -21,6 +28,8 @@ LEAK_KEY = "raylab_leak_test"
 MAX_LEAKS_DRAWN = 400
 RAY_COLOR = (1.0, 0.15, 0.1, 0.9)
 CROSSING_COLOR = (1.0, 0.85, 0.1, 1.0)
+CONTRACT_COLOR = (1.0, 0.5, 0.05, 1.0)  # the fast contract's orange in the price chart (tools/bench/charts.py)
+SPEED_ROUNDS = 3  # the speed of a contract on the leak rays: the fastest of this many runs
 OVERSHOOT = 1.6  # each ray is drawn to 1.6 times its distance from the centre to the surface
 
 
@@ -30,10 +39,12 @@ def leak_test(scene):
     """Shoots rays from the centre of the level mesh's box through every vertex and every edge midpoint,
     the places where two triangles meet, with each triangle test. From inside a closed mesh every ray
     must hit; the ones that hit nothing leaked. Stores and returns {rays, one count per name in
-    api.TRIANGLE_TESTS, contracts, centre, escaped, mesh}: contracts counts the same rays' leaks through the BVH
-    under each contract (api.CONTRACTS: what the sidebar's Contract changes); the box centre and the points where
-    up to MAX_LEAKS_DRAWN escaped rays of the leakiest test (spread over all of them) passed through (object space,
-    flat lists), for the viewport to draw; `mesh` is the mesh_fingerprint they belong to."""
+    api.TRIANGLE_TESTS, contracts, contract_escaped, contract_speed, centre, escaped, mesh}: contracts counts the
+    same rays' leaks through the BVH under each contract (api.CONTRACTS: what the sidebar's Contract changes),
+    contract_escaped holds where they passed through, contract_speed each contract's rays per second on them; the
+    box centre and the points where up to MAX_LEAKS_DRAWN escaped rays of the leakiest test (spread over all of
+    them) passed through (object space, flat lists), for the viewport to draw; `mesh` is the mesh_fingerprint they
+    belong to."""
     obj = level_mesh_object(scene)
     if obj is None:
         raise LevelError("the scene is not a level (open one first)")
@@ -53,39 +64,58 @@ def leak_test(scene):
         result[test] = int(missed.sum())
         if missed.sum() > len(escaped):  # the viewport draws the leakiest test's escapes
             escaped = targets[keep][missed]
-    result["contracts"] = {contract: int((~api.build(vertices, triangles, structure="bvh", contract=contract)
-                                          .intersect(origins, directions[keep]).hit).sum())
-                           for contract in api.CONTRACTS}
-    spread = np.linspace(0, len(escaped) - 1, min(len(escaped), MAX_LEAKS_DRAWN)).astype(int)
-    result["escaped"] = escaped[spread].ravel().tolist()
+    result["contracts"], result["contract_escaped"], result["contract_speed"] = {}, {}, {}
+    for contract in api.CONTRACTS:
+        structure = api.build(vertices, triangles, structure="bvh", contract=contract)
+        seconds = []
+        for _ in range(SPEED_ROUNDS):
+            start = time.perf_counter()
+            missed = ~structure.intersect(origins, directions[keep]).hit
+            seconds.append(time.perf_counter() - start)
+        result["contracts"][contract] = int(missed.sum())
+        result["contract_escaped"][contract] = spread(targets[keep][missed])
+        result["contract_speed"][contract] = result["rays"] / max(min(seconds), 1e-9)
+    result["escaped"] = spread(escaped)
     scene[LEAK_KEY] = result
     return result
 
 
+def spread(points):
+    """Up to MAX_LEAKS_DRAWN of `points` (N,3), spread over all of them, as a flat list (an ID property)."""
+    chosen = np.linspace(0, len(points) - 1, min(len(points), MAX_LEAKS_DRAWN)).astype(int)
+    return points[chosen].ravel().tolist()
+
+
 # --- the overlay (GUI only) -------------------------------------------------------------------------
 
-def leak_segments(scene):
-    """World-space starts, ends and surface crossings (each (N,3)) of the escaped rays to draw, or None:
-    no leak test in this scene, or the level mesh changed since."""
+def leak_segments(scene, contract=None):
+    """World-space starts, ends and surface crossings (each (N,3)) of the escaped rays to draw: the leakiest
+    triangle test's, or with `contract` the BVH's under that contract; None if there are none, no leak test in
+    this scene, or the level mesh changed since."""
     leaks = scene.get(LEAK_KEY)
     obj = level_mesh_object(scene)
-    if leaks is None or obj is None or not leaks.get("escaped") or leaks.get("mesh") != mesh_fingerprint(obj):
+    if leaks is None or obj is None or leaks.get("mesh") != mesh_fingerprint(obj):
+        return None
+    escaped = leaks.get("escaped") if contract is None else leaks.get("contract_escaped", {}).get(contract)
+    if not escaped:
         return None
     matrix = np.array(obj.matrix_world)
     centre = np.asarray(leaks["centre"], dtype=float)
-    crossings = np.asarray(leaks["escaped"], dtype=float).reshape(-1, 3)
+    crossings = np.asarray(escaped, dtype=float).reshape(-1, 3)
     ends = centre + OVERSHOOT * (crossings - centre)
     starts = np.repeat(centre[None], len(crossings), axis=0)
     return tuple(p @ matrix[:3, :3].T + matrix[:3, 3] for p in (starts, ends, crossings))
 
 
 def _draw():
-    segments = leak_segments(bpy.context.scene)
-    if segments is None:
-        return
-    starts, ends, crossings = segments
-    draw.draw_segments(starts, ends, np.tile(np.array(RAY_COLOR, np.float32), (len(starts), 1)), True, 2.0)
-    draw.draw_points(crossings, CROSSING_COLOR, True, 6.0)
+    scene = bpy.context.scene
+    for segments, colour, width in ((leak_segments(scene), RAY_COLOR, 2.0),
+                                    (leak_segments(scene, scene.raylab.contract), CONTRACT_COLOR, 3.0)):
+        if segments is None:
+            continue
+        starts, ends, crossings = segments
+        draw.draw_segments(starts, ends, np.tile(np.array(colour, np.float32), (len(starts), 1)), True, width)
+        draw.draw_points(crossings, CROSSING_COLOR, True, 6.0)
 
 
 # --- the panel lines and the operator ------------------------------------------------------------------
@@ -102,7 +132,7 @@ def draw_results(layout, context):
     for line, icon in contract_lines(leaks, context.scene.raylab.contract):
         text_fit.label(box, context, line, icon, boxes=1)
     if leak_segments(context.scene) is not None:
-        text_fit.label(box, context, "Escaped rays: red in the viewport", 'INFO', boxes=1)
+        text_fit.label(box, context, "Escaped rays: red in the viewport, the Contract's orange", 'INFO', boxes=1)
 
 
 def contract_lines(leaks, chosen):
@@ -110,9 +140,26 @@ def contract_lines(leaks, chosen):
     contracts = leaks.get("contracts")
     if not contracts:
         return []  # a leak test from before contracts were counted
-    return [(f"BVH, {api.CONTRACT_INFO[name]['label']} contract: {contracts[name]:,} leaked"
-             + (" (the sidebar's Contract)" if name == chosen else ""), 'RIGHTARROW' if name == chosen else 'NONE')
-            for name in api.CONTRACTS if name in contracts]
+    lines = [(f"BVH, {api.CONTRACT_INFO[name]['label']} contract: {contracts[name]:,} leaked"
+              + (" (the sidebar's Contract)" if name == chosen else ""), 'RIGHTARROW' if name == chosen else 'NONE')
+             for name in api.CONTRACTS if name in contracts]
+    point = price_point(leaks, chosen)
+    if point is not None:
+        wrong, speed = point
+        reference = api.CONTRACT_INFO[api.DEFAULTS["contract"]]["label"]
+        lines.append((f"This mesh on the price chart, {api.CONTRACT_INFO[chosen]['label']} contract: "
+                      f"{wrong:,.0f} wrong per million hostile rays, {speed:.2f}x the {reference} contract's "
+                      f"speed on them", 'GRAPH'))
+    return lines
+
+
+def price_point(leaks, contract):
+    """This mesh's point on the price chart under `contract`: (wrong answers per million of the leak test's
+    hostile rays, its rays per second over the default (exact) contract's), or None (no speeds measured)."""
+    speeds, reference = leaks.get("contract_speed"), api.DEFAULTS["contract"]
+    if not speeds or contract not in speeds or reference not in speeds or not leaks["rays"]:
+        return None
+    return 1e6 * leaks["contracts"][contract] / leaks["rays"], speeds[contract] / speeds[reference]
 
 
 class RAYLAB_OT_level_leak_test(bpy.types.Operator):
