@@ -517,6 +517,16 @@ def test_the_sidebar_s_contract_changes_the_rays_drawn_and_the_price_point():
         assert f"{wrong:,.0f} wrong per million" in lines[0]
         points[chosen] = lines[0]
     assert points["exact"] != points["fast"]
+    # The viewport's price chart: a point per contract, the one with more leaks further right, the sidebar's
+    # Contract ringed (its label says so).
+    for chosen in raylab.CONTRACTS:
+        plot, placed, ringed, labels = leak.price_chart_layout(leaks, chosen)
+        assert ringed == chosen and [name for name, *_ in placed] == list(raylab.CONTRACTS)
+        assert sum(text.endswith("(sidebar)") for _, _, text, _ in labels) == 1
+        x0, y0, w, h = leak.PRICE_FRAME
+        assert all(x0 <= x <= x0 + w and y0 <= y <= y0 + h for _, x, y, _ in placed)
+    where = {name: (x, y) for name, x, y, _ in placed}
+    assert where["fast"][0] > where["exact"][0]
     assert leak.leak_segments(scene, "exact") is None and leak.leak_segments(scene, "fast") is not None
     text = " ".join(block[1] for block in levels.find_level("where_methods_fail").blocks if block[0] == "paragraph")
     assert f"its {leaks['rays']:,} rays" in text

@@ -123,13 +123,20 @@ def steps_for(level_id):
     def count_leaks():
         bpy.ops.raylab.level_leak_test()
 
+    def price_chart(key):
+        scene = bpy.context.scene
+        _, placed, chosen, _ = leak.price_chart_layout(scene[leak.LEAK_KEY], scene.raylab.contract)
+        report["levels"][level_id][key] = dict(chosen=chosen, points={name: [x, y] for name, x, y, _ in placed})
+
     def shoot_leaks():
         describe_leaks(level_id)
+        price_chart("price_chart")
         screenshot(f"level_{level_id}_leaks.png")
         bpy.context.scene.raylab.contract = "fast"  # the student switches the sidebar's Contract
 
     def shoot_leaks_fast():
         describe_leaks(level_id, "fast", "fast_contract_segments")
+        price_chart("price_chart_fast")
         screenshot(f"level_{level_id}_leaks_fast.png")
 
     steps = [open_level, shoot_level, shoot_boxes_off]

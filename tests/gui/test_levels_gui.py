@@ -101,10 +101,11 @@ def test_count_leaking_rays_draws_the_escaped_rays_in_red(shots):
     assert (drawn & rays).sum() / drawn.sum() > 0.8
 
 
-def test_the_fast_contract_s_escaped_rays_turn_up_in_orange(shots):
+def test_the_fast_contract_s_escaped_rays_turn_up_in_orange_and_its_point_is_ringed(shots):
     """Issue 42 item 7: switching the sidebar's Contract changed nothing in the viewport. Under the fast
     contract, the rays the BVH lets out are drawn in orange (the price chart's colour of the fast contract)
-    where the test projects them; under the exact one there were none."""
+    where the test projects them; under the exact one there were none. On the price chart in the viewport's
+    corner, the white ring moves from the exact contract's point to the fast one's."""
     entry = shots[LEAK_LEVEL]
     region, (exact, fast) = images(shots, LEAK_LEVEL, "_leaks", "_leaks_fast")
     inside = viewport_mask(entry, region, fast.shape[:2])
@@ -116,3 +117,10 @@ def test_the_fast_contract_s_escaped_rays_turn_up_in_orange(shots):
     assert new.sum() > 300, "no orange rays in the viewport after switching Contract to Fast"
     rays = dilate(segments_mask(region, entry["fast_contract_segments"], fast.shape[:2]), 4)
     assert (new & rays).sum() / new.sum() > 0.9
+    for key, image, other in (("price_chart", exact, fast), ("price_chart_fast", fast, exact)):
+        chart = entry[key]
+        for name, (x, y) in chart["points"].items():
+            top, left = region.row_col(x, y)
+            ring = image[top - 11:top + 12, left - 11:left + 12]
+            ring_pixels = (ring.min(axis=-1) > 0.9).sum()  # the ring: white, 17 px across, 2 px wide
+            assert (ring_pixels > 40) == (name == chart["chosen"]), (key, name, ring_pixels)

@@ -12,7 +12,8 @@ Drawn through the mesh: the rays start inside it.
 
 The same rays give this mesh's point on the price chart (levels/where_methods_fail/diagrams/bench_price.png:
 wrong answers per million hostile rays against speed): each contract's leaks per million of them, and its
-rays per second through the BVH against the exact contract's, measured on them here.
+rays per second through the BVH against the exact contract's, measured on them here. The viewport draws that
+chart in its bottom-left corner, a point per contract, the sidebar's Contract ringed; the panel says it.
 """
 import time
 
@@ -30,6 +31,13 @@ RAY_COLOR = (1.0, 0.15, 0.1, 0.9)
 CROSSING_COLOR = (1.0, 0.85, 0.1, 1.0)
 CONTRACT_COLOR = (1.0, 0.5, 0.05, 1.0)  # the fast contract's orange in the price chart (tools/bench/charts.py)
 SPEED_ROUNDS = 3  # the speed of a contract on the leak rays: the fastest of this many runs
+# The price chart's colours per contract, as the benchmark's chart draws them (tools/bench/charts.py).
+PRICE_COLOURS = dict(zip(api.CONTRACTS, ((0.12, 0.47, 0.71, 1.0), CONTRACT_COLOR)))
+PRICE_FRAME = (60, 24, 330, 190)  # the chart in the viewport's pixels: x, y (from the bottom left), width, height
+ZERO_AT = 0.3                     # where 0 wrong per million sits on the log axis (tools/bench/charts.py)
+WRONG_RANGE = (ZERO_AT / 2, 4e5)  # the wrong-per-million axis, log; its ticks below
+WRONG_TICKS = ((ZERO_AT, "0"), (10, "10"), (1e3, "1k"), (1e5, "100k"))
+RING = (1.0, 1.0, 1.0, 1.0)
 OVERSHOOT = 1.6  # each ray is drawn to 1.6 times its distance from the centre to the surface
 
 
@@ -162,6 +170,58 @@ def price_point(leaks, contract):
     return 1e6 * leaks["contracts"][contract] / leaks["rays"], speeds[contract] / speeds[reference]
 
 
+def price_chart_layout(leaks, chosen, frame=PRICE_FRAME):
+    """Where the price chart draws (no bpy, so the tests read it), or None (no speeds measured): the plot
+    (x, y, width, height), the points [(contract, x, y, rgba)], the sidebar's Contract `chosen`, the axes'
+    labels [(x, y, text, rgba)]. x: wrong answers per million of the leak test's rays (log, 0 at ZERO_AT),
+    y: speed on them against the default (exact) contract's."""
+    points = {name: price_point(leaks, name) for name in api.CONTRACTS}
+    if any(point is None for point in points.values()):
+        return None
+    x0, y0, w, h = frame
+    plot = (x0 + 40, y0 + 34, w - 52, h - 76)
+    speeds = [speed for _, speed in points.values()]
+    low, high = min([0.5] + speeds) * 0.9, max([2.0] + speeds) * 1.1
+    lo, hi = np.log10(WRONG_RANGE[0]), np.log10(WRONG_RANGE[1])
+
+    def to_pixel(wrong, speed):
+        across = (np.log10(min(max(wrong, ZERO_AT), WRONG_RANGE[1])) - lo) / (hi - lo)
+        return plot[0] + across * plot[2], plot[1] + (speed - low) / (high - low) * plot[3]
+    placed = [(name, *to_pixel(*points[name]), PRICE_COLOURS.get(name, RING)) for name in points]
+    white = (1.0, 1.0, 1.0, 1.0)
+    labels = [(x0 + 8, y0 + h - 18, "This mesh on the price chart", white),
+              (x0 + 8, y0 + h - 34, "speed on its rays (the exact contract's = 1)", white),
+              (plot[0], y0 + 4, "wrong per million of its rays", white),
+              (x0 + 4, plot[1] - 4, f"{low:.2g}", white), (x0 + 4, plot[1] + plot[3] - 8, f"{high:.2g}", white)]
+    labels += [(to_pixel(wrong, low)[0] - 4, plot[1] - 16, text, white) for wrong, text in WRONG_TICKS]
+    for name, x, y, colour in placed:
+        label = api.CONTRACT_INFO[name]["label"] + (" (sidebar)" if name == chosen else "")
+        width = draw.TEXT_WIDTH * len(label)
+        labels.append((x + 10 if x + 10 + width < x0 + w else x - 10 - width, y + 6, label, colour))
+    return plot, placed, chosen, labels
+
+
+def _draw_price_chart():
+    context = bpy.context
+    scene = context.scene
+    leaks = scene.get(LEAK_KEY)
+    obj = level_mesh_object(scene)
+    if leaks is None or obj is None or leaks.get("mesh") != mesh_fingerprint(obj):
+        return
+    layout = price_chart_layout(leaks, scene.raylab.contract)
+    if layout is None:
+        return
+    (px, py, pw, ph), placed, chosen, labels = layout
+    draw.pixel_frame(PRICE_FRAME)
+    draw.pixel_lines(np.array([[px, py], [px, py + ph], [px, py], [px + pw, py]]), (0.62, 0.62, 0.7, 1.0))
+    for name, x, y, colour in placed:
+        draw.pixel_squares(np.array([x]), np.array([y]), 9, np.array([colour], np.float32))
+        if name == chosen:
+            draw.pixel_outline(x, y, 17, RING)
+    for x, y, text, colour in labels:
+        draw.pixel_text(x, y, text, colour)
+
+
 class RAYLAB_OT_level_leak_test(bpy.types.Operator):
     """Shoot rays from the mesh's centre through its vertices and edges with each triangle test; count leaks"""
     bl_idname = "raylab.level_leak_test"
@@ -185,6 +245,7 @@ _handles = []
 def register():
     bpy.utils.register_class(RAYLAB_OT_level_leak_test)
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw, (), 'WINDOW', 'POST_VIEW'))
+    _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_price_chart, (), 'WINDOW', 'POST_PIXEL'))
     level_panels.TASK_SECTIONS.append(draw_results)
 
 
