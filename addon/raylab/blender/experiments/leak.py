@@ -115,9 +115,14 @@ def leak_segments(scene, contract=None):
     return tuple(p @ matrix[:3, :3].T + matrix[:3, 3] for p in (starts, ends, crossings))
 
 
+_drawn = {}  # scene name: whether the viewport drew escaped rays last time, for the panel's line
+
+
 def _draw():
     scene = bpy.context.scene
-    for segments, colour, width in ((leak_segments(scene), RAY_COLOR, 2.0),
+    escaped = leak_segments(scene)
+    _drawn[scene.name_full] = escaped is not None
+    for segments, colour, width in ((escaped, RAY_COLOR, 2.0),
                                     (leak_segments(scene, scene.raylab.contract), CONTRACT_COLOR, 3.0)):
         if segments is None:
             continue
@@ -139,7 +144,9 @@ def draw_results(layout, context):
         text_fit.label(box, context, f"{info['label']}: {leaks[test]:,} leaked", boxes=1)
     for line, icon in contract_lines(leaks, context.scene.raylab.contract):
         text_fit.label(box, context, line, icon, boxes=1)
-    if leak_segments(context.scene) is not None:
+    # What the viewport drew, not leak_segments: a panel's draw must not let go of Python's interpreter lock,
+    # which the mesh's fingerprint (zlib) and numpy's products do.
+    if _drawn.get(context.scene.name_full):
         text_fit.label(box, context, "Escaped rays: red in the viewport, the Contract's orange", 'INFO', boxes=1)
 
 
@@ -250,6 +257,7 @@ def register():
 
 
 def unregister():
+    _drawn.clear()
     if draw_results in level_panels.TASK_SECTIONS:
         level_panels.TASK_SECTIONS.remove(draw_results)
     for handle in _handles:
