@@ -126,7 +126,8 @@ def steps_for(level_id):
     def price_chart(key):
         scene = bpy.context.scene
         _, placed, chosen, _ = leak.price_chart_layout(scene[leak.LEAK_KEY], scene.raylab.contract)
-        report["levels"][level_id][key] = dict(chosen=chosen, points={name: [x, y] for name, x, y, _ in placed})
+        report["levels"][level_id][key] = dict(chosen=chosen, points={name: [x, y] for name, x, y, _ in placed},
+                                               frame=list(leak.PRICE_FRAME))
 
     def shoot_leaks():
         describe_leaks(level_id)

@@ -30,10 +30,15 @@ def images(report, level_id, *suffixes):
 
 
 def viewport_mask(entry, region, shape):
-    """The part of the 3D viewport not covered by the sidebar, the header strip and the corner text."""
+    """The part of the 3D viewport not covered by the sidebar, the header strip, the corner text and the
+    leak test's price chart (where it was drawn)."""
     mask = np.zeros(shape, dtype=bool)
     sidebar_left = entry["sidebar"]["x"] - entry["region"]["x"]
     mask[60:, :sidebar_left] = True
+    if "price_chart" in entry:
+        x, y, w, h = entry["price_chart"]["frame"]
+        top, left = region.row_col(x, y + h)
+        mask[max(top - 2, 0):top + h + 3, max(left - 2, 0):left + w + 3] = False
     return mask
 
 
