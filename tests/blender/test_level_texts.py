@@ -40,6 +40,8 @@ CLAIMS = [
     ("levels/bvh_2/text.md", "yellow ones tested triangles", lambda: probe.STATUS_COLORS["missed_triangles"]),
     ("levels/where_methods_fail/text.md", "escaped rays in red", lambda: leak.RAY_COLOR),
     ("levels/where_methods_fail/text.md", "yellow dot", lambda: leak.CROSSING_COLOR),
+    ("levels/where_methods_fail/text.md", "turn up in orange", lambda: leak.CONTRACT_COLOR),
+    ("levels/where_methods_fail/text.md", "over the red ones", lambda: leak.RAY_COLOR),
     ("levels/why_sah/text.md", "x red", lambda: tree_view.AXIS_COLOURS[0]),
     ("levels/why_sah/text.md", "y green", lambda: tree_view.AXIS_COLOURS[1]),
     ("levels/why_sah/text.md", "z blue", lambda: tree_view.AXIS_COLOURS[2]),

@@ -494,3 +494,43 @@ def test_a_level_that_asks_to_read_the_render_shows_it_under_its_tasks():
     asking = [level.id for level in levels.available_levels()[0] if viewport_panels.reads_last_render(level)]
     assert "aabb_2" in asking and "why_sah" not in asking
     assert not viewport_panels.reads_last_render(None)
+
+
+def test_the_sidebar_s_contract_changes_the_rays_drawn_and_the_price_point():
+    """Issue 42 item 7: switching the sidebar's Contract changed nothing visible in Where methods fail. The
+    rays the BVH lets out under the chosen contract are drawn (none under exact, the fast one's leaks under
+    fast), the panel puts the mesh on the price chart at the chosen contract's point, and the level's text
+    quotes the same counts (the fast contract's within a few rays: its rounding follows the CPU's
+    instructions, AVX2 or SSE)."""
+    scene = levels.open_level(bpy.context, "where_methods_fail")
+    assert bpy.ops.raylab.level_leak_test() == {'FINISHED'}
+    leaks = scene[leak.LEAK_KEY]
+    points = {}
+    for chosen in raylab.CONTRACTS:
+        scene.raylab.contract = chosen
+        segments = leak.leak_segments(scene, scene.raylab.contract)
+        assert (0 if segments is None else len(segments[2])) == min(leaks["contracts"][chosen], leak.MAX_LEAKS_DRAWN)
+        wrong, speed = leak.price_point(leaks, chosen)
+        assert wrong == 1e6 * leaks["contracts"][chosen] / leaks["rays"] and speed > 0
+        lines = [text for text, _ in leak.contract_lines(leaks, scene.raylab.contract) if "price chart" in text]
+        assert len(lines) == 1 and raylab.CONTRACT_INFO[chosen]["label"] in lines[0]
+        assert f"{wrong:,.0f} wrong per million" in lines[0]
+        points[chosen] = lines[0]
+    assert points["exact"] != points["fast"]
+    # The viewport's price chart: a point per contract, the one with more leaks further right, the sidebar's
+    # Contract ringed (its label says so).
+    for chosen in raylab.CONTRACTS:
+        plot, placed, ringed, labels = leak.price_chart_layout(leaks, chosen)
+        assert ringed == chosen and [name for name, *_ in placed] == list(raylab.CONTRACTS)
+        assert sum(text.endswith("(sidebar)") for _, _, text, _ in labels) == 1
+        x0, y0, w, h = leak.PRICE_FRAME
+        assert all(x0 <= x <= x0 + w and y0 <= y <= y0 + h for _, x, y, _ in placed)
+    where = {name: (x, y) for name, x, y, _ in placed}
+    assert where["fast"][0] > where["exact"][0]
+    assert leak.leak_segments(scene, "exact") is None and leak.leak_segments(scene, "fast") is not None
+    text = " ".join(block[1] for block in levels.find_level("where_methods_fail").blocks if block[0] == "paragraph")
+    assert f"its {leaks['rays']:,} rays" in text
+    for quoted_after, measured in (("the fast one ", leaks["contracts"]["fast"]),
+                                   ("Möller–Trumbore's ", leaks["moller_trumbore"])):
+        quoted = int(text.split(quoted_after)[1].split(" ")[0].strip(",.").replace(",", ""))
+        assert abs(quoted - measured) <= 0.1 * measured, (quoted_after, quoted, measured)

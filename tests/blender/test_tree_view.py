@@ -235,18 +235,23 @@ def test_the_parent_arrow_keeps_the_picture_where_it_was(why_sah):
     assert tree_view.shown_focus(tree, deep, deep, levels, shown=start) == deep
 
 
-def test_the_level_s_tasks_panel_shows_the_picked_node_while_the_tree_view_is_on(why_sah):
-    """Issue 42 item 5: the Tree panel sits closed at the sidebar's bottom; in Why SAH? the Tasks panel,
-    where the student is, draws the picked node, its buttons and its split once the tree view is on."""
+def test_in_why_sah_the_tree_panel_is_open_right_under_the_tasks(why_sah):
+    """Issue 42 item 5: the Tree panel sat closed at the sidebar's bottom. In a level that teaches the tree it
+    is a sub-panel of Levels, right after Tasks (bl_order) and open by default; the sidebar's own Tree panel
+    steps aside there, and the Tasks panel no longer repeats the picked node or the tree's settings."""
     from raylab.blender import level_panels
-    assert tree_view.tasks_section in level_panels.TASK_SECTIONS
-    why_sah.raylab_tree.enabled = False
-    assert not tree_view.shows_in_tasks(bpy.context)
-    why_sah.raylab_tree.enabled = True
-    assert tree_view.shows_in_tasks(bpy.context)
-    other = levels.open_level(bpy.context, "bvh_2")  # a level that does not teach the tree
-    other.raylab_tree.enabled = True
-    assert not tree_view.shows_in_tasks(bpy.context)
+    level_tree, sidebar_tree = tree_view.RAYLAB_PT_level_tree, tree_view.RAYLAB_PT_tree
+    assert level_tree.bl_label == sidebar_tree.bl_label == "Tree"
+    assert level_tree.bl_parent_id == level_panels.RAYLAB_PT_levels.__name__
+    assert 'DEFAULT_CLOSED' not in getattr(level_tree, "bl_options", set())
+    siblings = sorted((cls for cls in level_panels.CLASSES + (level_tree,)
+                       if getattr(cls, "bl_parent_id", None) == level_tree.bl_parent_id), key=lambda c: c.bl_order)
+    assert [c.bl_label for c in siblings][:3] == ["Tasks", "Tree", "Tutorial"]
+    assert level_tree.poll(bpy.context) and not sidebar_tree.poll(bpy.context)
+    assert not any(c.startswith("raylab_tree.") for c in level_panels.current_level(bpy.context).controls)
+    assert all(getattr(hook, "__module__", "") != tree_view.__name__ for hook in level_panels.TASK_SECTIONS)
+    levels.open_level(bpy.context, "bvh_2")  # a level that does not teach the tree: the sidebar's panel
+    assert sidebar_tree.poll(bpy.context) and not level_tree.poll(bpy.context)
 
 
 def test_picking_the_dragon_s_root_draws_a_bounded_shallowest_subtree():

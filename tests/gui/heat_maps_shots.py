@@ -59,6 +59,7 @@ def wait_for_the_job():
 
 
 def fit_the_picture():
+    report["panels_before_maps"] = len(seen["panels"])
     window, area = picture_area()
     assert area is not None, "no Image Editor shows the heat maps"
     region = next(r for r in area.regions if r.type == 'WINDOW')
@@ -97,6 +98,13 @@ def shoot():
     raylab.write_image(os.path.join(OUT_DIR, "heat_maps_picture.png"),
                        pixels.reshape(image_height, image_width, 4)[::-1])
     screenshot(os.path.join(OUT_DIR, "heat_maps_window.png"), window=window)
+    # The 3D viewport's sidebar as the maps left it: the panels it drew since (the tab it shows), its tab
+    # where Blender says it (4.x, 5.x), its height against its viewport's.
+    _, view, _, sidebar = view3d()
+    report["sidebar_after_maps"] = dict(panels=seen["panels"][report["panels_before_maps"]:],
+                                        category=getattr(sidebar, "active_panel_category", None),
+                                        height=sidebar.height, area_height=view.height,
+                                        shown=view.spaces.active.show_region_ui)
 
 
 def areas_now():
@@ -117,9 +125,17 @@ def after_next():
     report["areas_after_next"] = areas_now()
 
 
+seen = {}
+
+
+def set_up():
+    raylab.register()
+    seen["panels"] = session.PanelDraws()
+
+
 STEPS = [open_level, click_raylab_tab, press_render_heat_maps, wait_for_the_job, fit_the_picture, shoot,
          next_level, after_next]
 
 # A wait (wait_for_the_job) is tried again a second later. Progress: a step done, or the job's fraction moving.
-SESSION.run(STEPS, raylab.register, wait=1.0, watchdog_seconds=WATCHDOG_SECONDS, what="the shots",
+SESSION.run(STEPS, set_up, wait=1.0, watchdog_seconds=WATCHDOG_SECONDS, what="the shots",
             progress=lambda: (len(STEPS), getattr(compare.running_job(), "fraction", None)))

@@ -86,17 +86,18 @@ def describe(level_id):
     report["levels"][level_id] = entry
 
 
-def describe_leaks(level_id):
-    """The escaped rays of the leak test, projected into the viewport as the overlay draws them."""
+def describe_leaks(level_id, contract=None, key="leak_segments"):
+    """The escaped rays of the leak test (with `contract`: the BVH's under it), projected into the viewport as
+    the overlay draws them, under report["levels"][level_id][key]."""
     _, area, region, _ = view3d()
     rv3d = area.spaces.active.region_3d
-    starts, ends, _ = leak.leak_segments(bpy.context.scene)
+    starts, ends, _ = leak.leak_segments(bpy.context.scene, contract)
     segments = []
     for a, b in zip(starts, ends):
         pa, pb = location_3d_to_region_2d(region, rv3d, Vector(a)), location_3d_to_region_2d(region, rv3d, Vector(b))
         if pa is not None and pb is not None:
             segments.append(((pa.x, pa.y), (pb.x, pb.y)))
-    report["levels"][level_id]["leak_segments"] = segments
+    report["levels"][level_id][key] = segments
 
 
 def steps_for(level_id):
@@ -122,15 +123,28 @@ def steps_for(level_id):
     def count_leaks():
         bpy.ops.raylab.level_leak_test()
 
+    def price_chart(key):
+        scene = bpy.context.scene
+        _, placed, chosen, _ = leak.price_chart_layout(scene[leak.LEAK_KEY], scene.raylab.contract)
+        report["levels"][level_id][key] = dict(chosen=chosen, points={name: [x, y] for name, x, y, _ in placed},
+                                               frame=list(leak.PRICE_FRAME))
+
     def shoot_leaks():
         describe_leaks(level_id)
+        price_chart("price_chart")
         screenshot(f"level_{level_id}_leaks.png")
+        bpy.context.scene.raylab.contract = "fast"  # the student switches the sidebar's Contract
+
+    def shoot_leaks_fast():
+        describe_leaks(level_id, "fast", "fast_contract_segments")
+        price_chart("price_chart_fast")
+        screenshot(f"level_{level_id}_leaks_fast.png")
 
     steps = [open_level, shoot_level, shoot_boxes_off]
     if levels.find_level(level_id).settings["raylab"].get("probe_enabled"):
         steps.append(shoot_probe_off)
     if level_id == "where_methods_fail":
-        steps += [count_leaks, shoot_leaks]
+        steps += [count_leaks, shoot_leaks, shoot_leaks_fast]
     return steps
 
 

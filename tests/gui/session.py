@@ -80,6 +80,29 @@ def sidebar_pixels():
     return screen[top:top + sidebar.height, left:left + sidebar.width].astype(np.float32) / 255.0
 
 
+class PanelDraws(list):
+    """The labels of raylab's 3D viewport sidebar panels, appended whenever Blender calls their draw: it
+    draws the open panels of the tab shown, in the order they stand in the sidebar (a closed one draws its
+    header alone). Made after raylab.register(); last_redraw() is the sidebar's latest redraw."""
+
+    def __init__(self):
+        super().__init__()
+        for cls in bpy.types.Panel.__subclasses__():
+            if cls.__module__.startswith("raylab.") and getattr(cls, "bl_space_type", "") == 'VIEW_3D':
+                cls.draw = self._recording(cls.bl_label, cls.draw)
+
+    def _recording(self, label, draw):
+        # Exactly (self, context): Blender passes as many arguments as the function names (more crash it).
+        def recorded(panel, context):
+            self.append(label)
+            draw(panel, context)
+        return recorded
+
+    def last_redraw(self, top="Levels"):
+        """The panels drawn since the sidebar last drew its `top` panel ([] if it never did)."""
+        return self[len(self) - 1 - self[::-1].index(top):] if top in self else []
+
+
 def quit_blender():
     try:
         bpy.ops.wm.quit_blender()

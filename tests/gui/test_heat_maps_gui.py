@@ -110,3 +110,15 @@ def test_the_heat_maps_editor_closes_with_its_level(shots):
     assert any(kind == 'IMAGE_EDITOR' for kind, _, _ in shots["areas_with_maps"])
     assert shots["level_after_next"] != "where_work_goes"
     assert shots["areas_after_next"] == shots["areas_before"], "the window's editors are not as they were"
+
+
+def test_the_viewport_s_sidebar_stays_on_the_raylab_tab_with_the_tasks(shots):
+    """Issue 42 item 6: with the sidebar on the raylab tab, Render Heat Maps split the viewport and left its
+    sidebar on the Tool tab, the tasks hidden. After the maps the viewport's sidebar is still shown, on the
+    raylab tab (it draws the level's Tasks panel; Blender 4.x and 5.x also name the tab), as tall as its
+    viewport."""
+    sidebar = shots["sidebar_after_maps"]
+    assert sidebar["shown"]
+    assert "Tasks" in sidebar["panels"], sidebar
+    assert sidebar["category"] in (None, "raylab"), sidebar
+    assert sidebar["height"] >= sidebar["area_height"] - 60, sidebar  # the viewport's header aside

@@ -18,7 +18,7 @@ LEAK_LEVEL = "where_methods_fail"  # shot before and after Count Leaking Rays
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory):
     stale = [f"level_{level}{suffix}.png" for level in (*LEVELS, LEAK_LEVEL)
-             for suffix in ("", "_boxes_off", "_probe_off", "_leaks")]
+             for suffix in ("", "_boxes_off", "_probe_off", "_leaks", "_leaks_fast")]
     return run_session("levels_shots.py", "levels_shots.json", start_blend(tmp_path_factory.mktemp("levels")),
                        (*LEVELS, LEAK_LEVEL), outputs=stale, extra=["--enable-event-simulate"])["levels"]
 
@@ -30,10 +30,15 @@ def images(report, level_id, *suffixes):
 
 
 def viewport_mask(entry, region, shape):
-    """The part of the 3D viewport not covered by the sidebar, the header strip and the corner text."""
+    """The part of the 3D viewport not covered by the sidebar, the header strip, the corner text and the
+    leak test's price chart (where it was drawn)."""
     mask = np.zeros(shape, dtype=bool)
     sidebar_left = entry["sidebar"]["x"] - entry["region"]["x"]
     mask[60:, :sidebar_left] = True
+    if "price_chart" in entry:
+        x, y, w, h = entry["price_chart"]["frame"]
+        top, left = region.row_col(x, y + h)
+        mask[max(top - 2, 0):top + h + 3, max(left - 2, 0):left + w + 3] = False
     return mask
 
 
@@ -99,3 +104,28 @@ def test_count_leaking_rays_draws_the_escaped_rays_in_red(shots):
     rays = dilate(segments_mask(region, entry["leak_segments"], after.shape[:2]), 4)
     assert (red & rays).sum() / red.sum() > 0.9
     assert (drawn & rays).sum() / drawn.sum() > 0.8
+
+
+def test_the_fast_contract_s_escaped_rays_turn_up_in_orange_and_its_point_is_ringed(shots):
+    """Issue 42 item 7: switching the sidebar's Contract changed nothing in the viewport. Under the fast
+    contract, the rays the BVH lets out are drawn in orange (the price chart's colour of the fast contract)
+    where the test projects them; under the exact one there were none. On the price chart in the viewport's
+    corner, the white ring moves from the exact contract's point to the fast one's."""
+    entry = shots[LEAK_LEVEL]
+    region, (exact, fast) = images(shots, LEAK_LEVEL, "_leaks", "_leaks_fast")
+    inside = viewport_mask(entry, region, fast.shape[:2])
+
+    def orange(image):
+        return (image[..., 0] > 0.8) & (image[..., 1] > 0.3) & (image[..., 1] < 0.65) & (image[..., 2] < 0.25) & inside
+
+    new = orange(fast) & ~orange(exact)
+    assert new.sum() > 300, "no orange rays in the viewport after switching Contract to Fast"
+    rays = dilate(segments_mask(region, entry["fast_contract_segments"], fast.shape[:2]), 4)
+    assert (new & rays).sum() / new.sum() > 0.9
+    for key, image, other in (("price_chart", exact, fast), ("price_chart_fast", fast, exact)):
+        chart = entry[key]
+        for name, (x, y) in chart["points"].items():
+            top, left = region.row_col(x, y)
+            ring = image[top - 11:top + 12, left - 11:left + 12]
+            ring_pixels = (ring.min(axis=-1) > 0.9).sum()  # the ring: white, 17 px across, 2 px wide
+            assert (ring_pixels > 40) == (name == chart["chosen"]), (key, name, ring_pixels)

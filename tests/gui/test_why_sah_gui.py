@@ -46,10 +46,14 @@ def test_the_chart_s_plot_holds_the_three_axes_curves(why_sah_shot):
     assert np.isfinite(plot).all()
 
 
-def test_the_tasks_panel_shows_the_picked_node(why_sah_shot):
-    """Issue 42 item 5: the Tree panel is closed at the sidebar's bottom; the Tasks panel, open beside the
-    level's tasks, draws the picked node's lines in the unit of the SAH cost."""
+def test_the_tree_panel_is_open_right_under_the_tasks(why_sah_shot):
+    """Issue 42 item 5: the Tree panel was closed at the sidebar's bottom. In Why SAH? it stands open right
+    under the level's Tasks (Blender draws an open panel's content, in the sidebar's order), once, with the
+    picked node's lines in the unit of the SAH cost."""
     report, _, _ = why_sah_shot
+    drawn = report["panels_drawn"]
+    assert "Tasks" in drawn and drawn[drawn.index("Tasks") + 1:][:1] == ["Tree"], drawn
+    assert drawn.count("Tree") == 1, drawn
     lines = report["panel_lines"]
     assert any(line.startswith(f"Node {report['node']}: depth") for line in lines), lines
     assert "SAH cost here and below" in " ".join(lines), lines

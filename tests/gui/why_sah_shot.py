@@ -1,7 +1,8 @@
 """Runs inside a real Blender window (xvfb-run, --enable-event-simulate for 3.4's sidebar tab): the Why SAH?
 level with the tree view on, Costliest pressed once from the root (an inner node: the Split Explorer charts
 its splits), the sidebar on the raylab tab; one window screenshot and a JSON with the viewport region's
-place and what the explorer's chart labels say where (tree_view.chart_layout).
+place, what the explorer's chart labels say where (tree_view.chart_layout) and which sidebar panels draw,
+in their order (session.PanelDraws).
 
     xvfb-run -a -s "-screen 0 1600x900x24" blender --factory-startup --enable-event-simulate \
         --python tests/gui/why_sah_shot.py -- OUT_DIR
@@ -27,7 +28,8 @@ seen = {}
 
 def set_up():
     raylab.register()
-    text_fit.RECORD = []  # every panel line drawn: the Tasks panel's picked node among them
+    text_fit.RECORD = []  # every panel line drawn: the picked node's among them
+    seen["panels"] = session.PanelDraws()
 
 
 def open_level():
@@ -81,6 +83,7 @@ def raylab_tab():
 def shot():
     screenshot(os.path.join(OUT, "why_sah_tree.png"))
     report["panel_lines"] = list(dict.fromkeys(line for line, _, _ in text_fit.RECORD))
+    report["panels_drawn"] = seen["panels"].last_redraw()
 
 
 SESSION.run([open_level, sidebar, raylab_tab, tree_on, tree_drawn, picked_drawn, shot], set_up, watchdog_seconds=120)

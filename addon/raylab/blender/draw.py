@@ -1,5 +1,6 @@
-"""Drawing over the 3D viewport: GPU batches of coloured lines and points, box wireframes, and the
-request to redraw every 3D viewport. The gpu module is imported when drawing only (it is unavailable in
+"""Drawing over the 3D viewport: GPU batches of coloured lines and points, box wireframes, flat shapes and
+text in the region's pixels (POST_PIXEL: the tree view, the charts), and the request to redraw every 3D
+viewport. The gpu module is imported when drawing only (it is unavailable in
 background mode), so everything here can be imported headless."""
 import bpy
 import numpy as np
@@ -93,3 +94,75 @@ def draw_points(points, color, xray, size):
     shader = point_shader_name()
     draw_batch(make_batch('POINTS', positions, colors, shader_name=shader), np.identity(4), xray, shader,
                point_size=size)
+
+
+# --- in the region's pixels (a POST_PIXEL handler) ---------------------------------------------------
+
+FRAME = (0.05, 0.05, 0.06, 1.0)  # a frame's fill: opaque, so the boxes behind never show through the text
+WHITE = (1.0, 1.0, 1.0, 1.0)
+TEXT_PIXELS = 12                 # the charts' font size
+TEXT_WIDTH = 7.0                 # pixels a character of it takes, at most (the tests' estimate too)
+
+
+def _pixel_positions(points):
+    points = np.asarray(points, dtype=np.float32).reshape(-1, 2)
+    return np.ascontiguousarray(np.concatenate([points, np.zeros((len(points), 1), np.float32)], 1))
+
+
+def _pixel_colours(colour, count):
+    colour = np.asarray(colour, dtype=np.float32)
+    return np.ascontiguousarray(colour if colour.ndim == 2 else np.tile(colour, (count, 1)))
+
+
+def pixel_batch(primitive, points, colour, width=1.0):
+    """Region pixels (N,2) as `primitive` in one RGBA colour, or (N,4) colours one each."""
+    import gpu
+    positions = _pixel_positions(points)
+    if len(positions) == 0:
+        return
+    batch = make_batch(primitive, positions, _pixel_colours(colour, len(positions)))
+    gpu.state.blend_set('ALPHA')
+    gpu.state.line_width_set(width)
+    batch.draw(gpu.shader.from_builtin(THIN))
+    gpu.state.line_width_set(1.0)
+    gpu.state.blend_set('NONE')
+
+
+def pixel_triangles(points, colour):
+    pixel_batch('TRIS', points, colour)
+
+
+def pixel_lines(points, colour, width=1.0):
+    pixel_batch('LINES', points, colour, width)
+
+
+def pixel_frame(frame, colour=FRAME):
+    """A filled rectangle (x, y, width, height)."""
+    x, y, w, h = frame
+    pixel_triangles(np.array([[x, y], [x + w, y], [x + w, y + h], [x, y], [x + w, y + h], [x, y + h]],
+                             np.float32), colour)
+
+
+def pixel_squares(xs, ys, size, colours):
+    """Filled squares `size` pixels across centred on (xs, ys), one RGBA colour each ((N,4))."""
+    half = size / 2.0
+    corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1)], np.float32) * half
+    points = (np.stack([xs, ys], 1)[:, None, :] + corners[None, :, :]).reshape(-1, 2)
+    pixel_triangles(points, np.repeat(colours, 6, axis=0))
+
+
+def pixel_outline(x, y, size, colour):
+    """A square's outline, `size` pixels across, 2 pixels wide, centred on (x, y)."""
+    h = size / 2.0
+    square = np.array([[x - h, y - h], [x + h, y - h], [x + h, y - h], [x + h, y + h], [x + h, y + h],
+                       [x - h, y + h], [x - h, y + h], [x - h, y - h]], np.float32)
+    pixel_batch('LINES', square, colour, width=2.0)
+
+
+def pixel_text(x, y, text, colour=WHITE):
+    import blf
+    font = 0
+    blf.size(font, TEXT_PIXELS)
+    blf.color(font, *colour)
+    blf.position(font, x, y, 0)
+    blf.draw(font, text)

@@ -38,7 +38,7 @@ COST_RAYS = "primary"               # only the camera rays: each pixel is one ra
 HEAT_MAP_PIXELS = 160 * 120         # at most this many pixels per map: four renders stay quick on 2 cores
 GAP = 6                             # background columns between two maps
 GAP_COLOUR = (0.05, 0.05, 0.05, 1.0)
-SPLIT = 0.45                        # the part of the 3D viewport the picture's Image Editor takes
+SPLIT = 0.45                        # the part of the 3D viewport the picture's Image Editor takes (< 0.5)
 NUMBER_BAND = 52                    # picture rows under the maps where the Image Editor writes their numbers
 NUMBER_LINES = 4                    # structure, hardest pixel and where, mean, total
 TEXT_COLOR = (0.92, 0.92, 0.92, 1.0)
@@ -167,10 +167,13 @@ def show_picture(context, image):
         view = max(views, key=lambda a: a.width * a.height)
         before = {a.as_pointer() for a in screen.areas}
         region = next(r for r in view.regions if r.type == 'WINDOW')
+        # Blender puts the new area on top when the factor (the lower part's share) is over one half, and
+        # gives it copies of the regions without the sidebar's tab: the new area becomes the editor, the
+        # viewport keeps its own sidebar, on the tab the user had (the raylab tab, with the tasks). The
+        # areas' places are only laid out at the next redraw: the new one is told by its pointer.
         with context.temp_override(window=window, area=view, region=region):
-            bpy.ops.screen.area_split(direction='HORIZONTAL', factor=SPLIT)
-        halves = [view] + [a for a in screen.areas if a.as_pointer() not in before]
-        area = max(halves, key=lambda a: a.y)  # the upper part
+            bpy.ops.screen.area_split(direction='HORIZONTAL', factor=1.0 - SPLIT)
+        area = next(a for a in screen.areas if a.as_pointer() not in before)
         area.type = 'IMAGE_EDITOR'
         _split_areas.add(area.as_pointer())
     area.spaces.active.image = image

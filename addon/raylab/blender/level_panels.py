@@ -63,7 +63,13 @@ class RAYLAB_PT_levels(_LevelPanel, bpy.types.Panel):
             text_fit.label(box, context, "Goal: " + level.goal, boxes=1)
 
 
-class _OpenLevelPanel(_LevelPanel):
+# The sub-panels of Levels by bl_order: the tasks right under the goal, where a student sees them tick while
+# working, a panel a level works with right under them (tree_view.RAYLAB_PT_level_tree), the tutorial's text
+# below.
+TASKS_ORDER = 1
+
+
+class OpenLevelPanel(_LevelPanel):
     bl_parent_id = "RAYLAB_PT_levels"
 
     @classmethod
@@ -71,8 +77,9 @@ class _OpenLevelPanel(_LevelPanel):
         return current_level(context) is not None
 
 
-class RAYLAB_PT_level_text(_OpenLevelPanel, bpy.types.Panel):
+class RAYLAB_PT_level_text(OpenLevelPanel, bpy.types.Panel):
     bl_label = "Tutorial"
+    bl_order = TASKS_ORDER + 2
 
     def draw(self, context):
         layout = self.layout
@@ -89,8 +96,9 @@ class RAYLAB_PT_level_text(_OpenLevelPanel, bpy.types.Panel):
                 diagrams.draw(layout, context, *block[1:])
 
 
-class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
+class RAYLAB_PT_level_tasks(OpenLevelPanel, bpy.types.Panel):
     bl_label = "Tasks"
+    bl_order = TASKS_ORDER
 
     def draw(self, context):
         layout = self.layout
@@ -121,8 +129,9 @@ class RAYLAB_PT_level_tasks(_OpenLevelPanel, bpy.types.Panel):
                     column.prop(data, prop, text="")
 
 
-class RAYLAB_PT_level_mesh(_OpenLevelPanel, bpy.types.Panel):
+class RAYLAB_PT_level_mesh(OpenLevelPanel, bpy.types.Panel):
     bl_label = "Level mesh"
+    bl_order = TASKS_ORDER + 3
 
     def draw(self, context):
         layout = self.layout
@@ -136,16 +145,15 @@ class RAYLAB_PT_level_mesh(_OpenLevelPanel, bpy.types.Panel):
         layout.menu(levels.RAYLAB_MT_level_swap_mesh.bl_idname, text="Swap mesh", icon='FILE_REFRESH')
 
 
-class RAYLAB_PT_level_list(_OpenLevelPanel, bpy.types.Panel):
+class RAYLAB_PT_level_list(OpenLevelPanel, bpy.types.Panel):
     bl_label = "All levels"
     bl_options = {'DEFAULT_CLOSED'}
+    bl_order = TASKS_ORDER + 4
 
     def draw(self, context):
         _level_buttons(self.layout, context, current_level(context))
 
 
-# Sub-panels draw in the order they are registered: the tasks right under the goal, where a student sees
-# them tick while working, and the tutorial's text below them.
 CLASSES = (diagrams.RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_level_tasks, RAYLAB_PT_level_text,
            RAYLAB_PT_level_mesh, RAYLAB_PT_level_list)
 

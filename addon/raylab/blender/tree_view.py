@@ -30,7 +30,6 @@ AXIS_COLOURS = ((1.0, 0.2, 0.2, 1.0), (0.4, 1.0, 0.4, 1.0), (0.25, 0.4, 1.0, 1.0
 LEAF_LINE = (0.6, 0.6, 0.6, 0.9)  # the chart's line at the cost of keeping the node a leaf
 MARGIN = 16      # pixels between the view's edge and the tree's frame
 MIN_PLACE = 4    # pixels a place across the tree's picture needs at least (a node's smallest square)
-FRAME = (0.05, 0.05, 0.06, 1.0)  # the frames' fill: opaque, so the boxes behind never show through the text
 NODE_SIZE = 9    # a node's square, in pixels, at most
 CLICK_RADIUS = 10
 TITLE_HEIGHT = 22  # the frame's title row above the tree
@@ -352,14 +351,14 @@ def _draw_tree_view():
     region = context.region
     obj, entry = target(context)
     tree_frame, chart_frame = frames(region)
-    _draw_frame(tree_frame)
+    draw.pixel_frame(tree_frame)
     if obj is None:
-        _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, entry)
+        draw.pixel_text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, entry)
         return
     try:
         tree = tree_of(obj, entry, context.scene)
     except ValueError as error:
-        _text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, str(error))
+        draw.pixel_text(tree_frame[0] + 8, tree_frame[1] + tree_frame[3] - 18, str(error))
         return
     picked_node, focus, _ = picked(context.scene, tree)
     last = _starts.get(region.as_pointer())  # kept while the tree and the focus (Focus, All) are
@@ -381,35 +380,35 @@ def _draw_tree_view():
     if len(edges):
         segments = np.stack([np.stack([xs[edges[:, 0]], ys[edges[:, 0]]], 1),
                              np.stack([xs[edges[:, 1]], ys[edges[:, 1]]], 1)], 1).reshape(-1, 2)
-        _lines(segments, (0.7, 0.7, 0.7, 0.35))
+        draw.pixel_lines(segments, (0.7, 0.7, 0.7, 0.35))
     size = float(np.clip(w / max(picture["places"], 1) * 0.8, 4.0, NODE_SIZE))
-    _squares(xs, ys, size + 2, np.tile(np.float32(NODE_EDGE), (len(xs), 1)))  # an edge: black is a colour too
-    _squares(xs, ys, size, node_colours(tree, nodes, settings.colour))
+    draw.pixel_squares(xs, ys, size + 2, np.tile(np.float32(NODE_EDGE), (len(xs), 1)))  # an edge: black is a colour too
+    draw.pixel_squares(xs, ys, size, node_colours(tree, nodes, settings.colour))
     collapsed = picture["collapsed"]
     if collapsed.any():  # a collapsed node: a short stem under it says that more hangs there
         stems = np.stack([np.stack([xs[collapsed], ys[collapsed] - size], 1),
                           np.stack([xs[collapsed], ys[collapsed] - size - 6], 1)], 1).reshape(-1, 2)
-        _lines(stems, (1.0, 1.0, 1.0, 0.8))
+        draw.pixel_lines(stems, (1.0, 1.0, 1.0, 0.8))
     where = np.flatnonzero(nodes == picked_node)
     if len(where):
         i = where[0]
-        _outline(xs[i], ys[i], size + 3, PICKED)
+        draw.pixel_outline(xs[i], ys[i], size + 3, PICKED)
     fewer = f", {levels} of {settings.levels} levels (more would not fit: Focus)" if levels < settings.levels else ""
     title = (f"{api.STRUCTURE_INFO[tree.kind]['label']} of {obj.name}: {len(tree):,} nodes; "
              f"showing {len(nodes):,} below node {focus}{fewer}. Click a node.")
-    _text(x0 + 8, y0 + h - 18, title)
+    draw.pixel_text(x0 + 8, y0 + h - 18, title)
     if settings.explorer:
         splits = tree.splits(picked_node, entry.structure)
         if splits is not None:
-            _draw_frame(chart_frame)
+            draw.pixel_frame(chart_frame)
             _draw_chart(chart_frame, splits)
 
 
 CHART_LEFT = 48     # pixels left of the plot for the cost axis's numbers
 CHART_BOTTOM = 18   # pixels under the plot for the position axis's labels
 CHART_TOP = 40      # pixels over the plot: the title row and the legend row
-TEXT_WIDTH = 7.0    # pixels a character of the chart's 12 px font takes, at most (the tests' estimate)
-WHITE = (1.0, 1.0, 1.0, 1.0)
+TEXT_WIDTH = draw.TEXT_WIDTH
+WHITE = draw.WHITE
 
 
 def chart_layout(frame, splits):
@@ -445,84 +444,24 @@ def _draw_chart(frame, splits):
 
     def to_pixel(position, cost):
         return px0 + position * pw, py0 + (cost - low) / span * ph
-    _lines(np.array([[px0, py0], [px0, py0 + ph], [px0, py0], [px0 + pw, py0]]), LEAF_LINE)  # the axes
+    draw.pixel_lines(np.array([[px0, py0], [px0, py0 + ph], [px0, py0], [px0 + pw, py0]]), LEAF_LINE)  # the axes
     for axis in range(3):
         positions = splits["across"][axis]
         ok = np.isfinite(costs[axis])
         if ok.sum() >= 2:
             px, py = to_pixel(positions[ok], costs[axis][ok])
             points = np.stack([px, py], 1)
-            _lines(np.stack([points[:-1], points[1:]], 1).reshape(-1, 2), AXIS_COLOURS[axis])
+            draw.pixel_lines(np.stack([points[:-1], points[1:]], 1).reshape(-1, 2), AXIS_COLOURS[axis])
     lx0, ly = to_pixel(0.0, leaf)
     lx1, _ = to_pixel(1.0, leaf)
-    _lines(np.array([[lx0, ly], [lx1, ly]]), LEAF_LINE)
+    draw.pixel_lines(np.array([[lx0, ly], [lx1, ly]]), LEAF_LINE)
     axis, position = splits["axis"], splits["across_chosen"]
     if axis >= 0:
         cx, cy = to_pixel(position, sah_cost.in_tests(splits["cost"]))
-        _lines(np.array([[cx, py0], [cx, py0 + ph]]), AXIS_COLOURS[axis])
-        _outline(cx, cy, 5, PICKED)
+        draw.pixel_lines(np.array([[cx, py0], [cx, py0 + ph]]), AXIS_COLOURS[axis])
+        draw.pixel_outline(cx, cy, 5, PICKED)
     for x, y, text, colour in labels:
-        _text(x, y, text, colour)
-
-
-def _draw_frame(frame):
-    x, y, w, h = frame
-    corners = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y], [x + w, y + h], [x, y + h]], np.float32)
-    _triangles(corners, FRAME)
-
-
-def _positions(points):
-    points = np.asarray(points, dtype=np.float32).reshape(-1, 2)
-    return np.ascontiguousarray(np.concatenate([points, np.zeros((len(points), 1), np.float32)], 1))
-
-
-def _colours(colour, count):
-    colour = np.asarray(colour, dtype=np.float32)
-    return np.ascontiguousarray(colour if colour.ndim == 2 else np.tile(colour, (count, 1)))
-
-
-def _batch_draw(primitive, points, colour, width=1.0):
-    import gpu
-    positions = _positions(points)
-    if len(positions) == 0:
-        return
-    batch = draw.make_batch(primitive, positions, _colours(colour, len(positions)))
-    gpu.state.blend_set('ALPHA')
-    gpu.state.line_width_set(width)
-    batch.draw(gpu.shader.from_builtin(draw.THIN))
-    gpu.state.line_width_set(1.0)
-    gpu.state.blend_set('NONE')
-
-
-def _triangles(points, colour):
-    _batch_draw('TRIS', points, colour)
-
-
-def _lines(points, colour):
-    _batch_draw('LINES', points, colour)
-
-
-def _squares(xs, ys, size, colours):
-    half = size / 2.0
-    corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1)], np.float32) * half
-    points = (np.stack([xs, ys], 1)[:, None, :] + corners[None, :, :]).reshape(-1, 2)
-    _triangles(points, np.repeat(colours, 6, axis=0))
-
-
-def _outline(x, y, size, colour):
-    h = size / 2.0
-    square = np.array([[x - h, y - h], [x + h, y - h], [x + h, y - h], [x + h, y + h], [x + h, y + h],
-                       [x - h, y + h], [x - h, y + h], [x - h, y - h]], np.float32)
-    _batch_draw('LINES', square, colour, width=2.0)
-
-
-def _text(x, y, text, colour=WHITE):
-    import blf
-    font = 0
-    blf.size(font, 12)
-    blf.color(font, *colour)
-    blf.position(font, x, y, 0)
-    blf.draw(font, text)
+        draw.pixel_text(x, y, text, colour)
 
 
 # --- the picked node in the 3D view ----------------------------------------------------------------------
@@ -736,9 +675,9 @@ def node_lines(tree, node, reset=False):
     return lines
 
 
-class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
+class _TreePanel:
+    """The Tree panel: the tree view's checkbox in its header, its settings and the picked node."""
     bl_label = "Tree"
-    bl_options = {'DEFAULT_CLOSED'}
 
     def draw_header(self, context):
         self.layout.prop(context.scene.raylab_tree, "enabled", text="")
@@ -753,9 +692,36 @@ class RAYLAB_PT_tree(viewport_panels.SidebarPanel, bpy.types.Panel):
         draw_picked_node(layout, context)
 
 
+def in_level(context):
+    """Whether the open level teaches with the tree view (it sets the tree view's settings, as Why SAH?
+    does): there the Tree panel is the level's, right under its tasks."""
+    level = level_panels.current_level(context)
+    return level is not None and bool(level.settings.get("raylab_tree"))
+
+
+class RAYLAB_PT_tree(_TreePanel, viewport_panels.SidebarPanel, bpy.types.Panel):
+    """The Tree panel of the sidebar's raylab tab, closed at its bottom: the structures' other panels come
+    first. Hidden in a level that teaches the tree, where RAYLAB_PT_level_tree shows it."""
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return not in_level(context)
+
+
+class RAYLAB_PT_level_tree(_TreePanel, level_panels.OpenLevelPanel, bpy.types.Panel):
+    """The Tree panel where a level that teaches the tree needs it: a sub-panel of Levels, right under the
+    Tasks (level_panels.TASKS_ORDER + 1) and open the first time it shows. Blender keeps its open or closed
+    state in the screen, so a student who closes it finds it closed when the level opens again."""
+    bl_order = level_panels.TASKS_ORDER + 1
+
+    @classmethod
+    def poll(cls, context):
+        return in_level(context)
+
+
 def draw_picked_node(layout, context):
-    """The picked node's lines, the walk buttons and its split: the Tree panel's, and the level's Tasks
-    panel's while the level asks for the tree view (tasks_section)."""
+    """The picked node's lines, the walk buttons and its split (the Tree panel's)."""
     obj, tree = known_tree(context)
     if obj is None:
         text_fit.label(layout, context, tree, 'INFO')
@@ -782,30 +748,16 @@ def draw_picked_node(layout, context):
                                         f"{sah_cost.in_tests(splits['leaf_cost']):.4g}", 'MOD_EDGESPLIT')
 
 
-CLASSES = (TreeSettings, RAYLAB_OT_tree_walk, RAYLAB_OT_tree_click, RAYLAB_OT_tree_key, RAYLAB_PT_tree)
+CLASSES = (TreeSettings, RAYLAB_OT_tree_walk, RAYLAB_OT_tree_click, RAYLAB_OT_tree_key, RAYLAB_PT_tree,
+           RAYLAB_PT_level_tree)
 _handles = []
 _keymaps = []
-
-
-def shows_in_tasks(context):
-    """Whether the open level's Tasks panel draws the picked node: the level puts the tree view among its
-    controls and it is on (the Tree panel sits closed at the sidebar's bottom)."""
-    level = level_panels.current_level(context)
-    return (level is not None and "raylab_tree.enabled" in level.controls
-            and context.scene.raylab_tree.enabled)
-
-
-def tasks_section(layout, context):
-    """A level_panels.TASK_SECTIONS hook: the picked node where the level's tasks are."""
-    if shows_in_tasks(context):
-        draw_picked_node(layout, context)
 
 
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     bpy.types.Scene.raylab_tree = PointerProperty(type=TreeSettings)
-    level_panels.TASK_SECTIONS.append(tasks_section)
     overlay.DIMMERS.append(dimming)
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_picked_boxes, (), 'WINDOW', 'POST_VIEW'))
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_tree_view, (), 'WINDOW', 'POST_PIXEL'))
@@ -824,8 +776,6 @@ def register():
 
 
 def unregister():
-    if tasks_section in level_panels.TASK_SECTIONS:
-        level_panels.TASK_SECTIONS.remove(tasks_section)
     for keymap, item in _keymaps:
         keymap.keymap_items.remove(item)
     _keymaps.clear()
