@@ -781,6 +781,7 @@ int run(const Options& o) {
       {"build_repetitions", o.build_reps},
       {"hardware_threads", std::thread::hardware_concurrency()},
       {"embree_version", RTC_VERSION_STRING},
+      {"clock", g_cpu_time ? "cpu" : "wall"},
       {"octree",
        {{"max_depth", o.max_depth == raylab::BuildSettings::kAutoDepth ? Json(raylab::BuildSettings::kAutoDepthName)
                                                                        : Json(o.max_depth)},

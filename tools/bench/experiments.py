@@ -432,14 +432,17 @@ def run_api(config, data_dir, name, native_mesh):
     hit_share = {ray_set: float(targets[("Structure", "exact")].intersect(*rays).hit.mean())
                  for ray_set, rays in sets.items()}
     seconds = {key: [] for key in calls}
+    # The clock raylab_bench used: its process's CPU time (--cpu-time: the time other processes held the
+    # core left out, on both sides of the ratio) or the wall clock.
+    clock = time.process_time if native_mesh.get("clock") == "cpu" else time.perf_counter
     with OneCore() as pin:
         for call, (origins, directions) in calls.values():  # warm-up
             call(origins, directions, threads=1)
         for _ in range(cfg["reps"]):  # interleaved: the machine's drift falls on every call alike
             for key, (call, (origins, directions)) in calls.items():
-                start = time.perf_counter()
+                start = clock()
                 call(origins, directions, threads=1)
-                seconds[key].append(time.perf_counter() - start)
+                seconds[key].append(clock() - start)
     tracers = {t["name"]: t for t in native_mesh["tracers"]}
     reference = {"embree_1": tracers.get("embree_medium"), "embree_8": tracers.get("embree_packets")}
     rows = []
@@ -458,7 +461,8 @@ def run_api(config, data_dir, name, native_mesh):
                 row[f"ratio_to_{key}"] = row["rays_per_second"] / other["rays_per_second"] if other else None
         rows.append(row)
     log(f"the user's path on {name} done")
-    return {"rows": rows, "reps": cfg["reps"], "pinned_core": pin.core}
+    return {"rows": rows, "reps": cfg["reps"], "pinned_core": pin.core,
+            "clock": "process CPU time" if clock is time.process_time else "wall clock"}
 
 
 def api_result(native, api):
@@ -491,3 +495,50 @@ def only_api(config, binary, data):
     native = run_native(config, binary, data, arguments=config["api"]["native"],
                         after_each=lambda name, mesh: api.update({name: run_api(config, data, name, mesh)}))
     return api_result(native, api)
+
+
+# ---------------------------------------------------------------- F12's renderer against a baseline's
+
+def run_render(config, baseline):
+    """raylab.render (what F12 runs) on one thread against the renderer of another checkout (`baseline`,
+    whose add-on holds its built module: last turn's main, say): each render in its own process
+    (tools/bench/render_worker.py, pinned to one core), the two checkouts alternating and which goes
+    first swapped every round, medians over every round's renders. Speed-up: the baseline's median
+    seconds over this checkout's (above 1: this one is faster), by the renderer's own timer and by the
+    process's CPU time."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from . import ROOT
+
+    cfg = config["render"]
+    addons = {"baseline": str(Path(baseline).resolve() / "addon"), "this": str(ROOT / "addon")}
+    times = {}
+    for round_ in range(cfg["rounds"]):
+        order = ["baseline", "this"] if round_ % 2 == 0 else ["this", "baseline"]
+        for name, width, height, levels in cfg["scenes"]:
+            for which in order:
+                done = subprocess.run(
+                    [sys.executable, "-m", "tools.bench.render_worker", "--scene", name, "--size",
+                     f"{width}x{height}", "--super-sampling", ",".join(map(str, levels)), "--renders",
+                     str(cfg["renders"])], cwd=ROOT, env=os.environ | {"RAYLAB_BENCH_ADDON": addons[which]},
+                    check=True, capture_output=True, text=True)
+                out = json.loads(done.stdout)
+                for ss, r in out["renders"].items():
+                    entry = times.setdefault((name, int(ss)), {"triangles": out["triangles"], "width": width,
+                                                               "height": height})
+                    for clock in ("render_seconds", "cpu_seconds"):
+                        entry.setdefault(f"{which}_{clock}", []).extend(r[clock])
+        log(f"render round {round_ + 1} of {cfg['rounds']} done")
+    rows = []
+    for (name, ss), e in times.items():
+        row = dict(scene=name, super_sampling=ss, triangles=e["triangles"], width=e["width"], height=e["height"])
+        for clock in ("render_seconds", "cpu_seconds"):
+            row[f"baseline_{clock}_median"] = statistics.median(e[f"baseline_{clock}"])
+            row[f"this_{clock}_median"] = statistics.median(e[f"this_{clock}"])
+            row[f"speedup_{clock}"] = row[f"baseline_{clock}_median"] / row[f"this_{clock}_median"]
+        rows.append(row)
+    return {"rows": rows, "baseline": str(Path(baseline).resolve()), "rounds": cfg["rounds"],
+            "renders_per_process": cfg["renders"]}

@@ -147,7 +147,8 @@ def api_markdown(api):
     lines = ["## The user's path: `import raylab` against Embree", "",
              f"`raylab.build(V, T, contract=...)` (Structure) and a `raylab.Scene` with one instance, numpy in and "
              f"numpy out, `threads=1`, this process pinned to one core (core {first['pinned_core']}), "
-             f"{first['reps']} interleaved rounds of every call, medians, on every ray raylab_bench traced (its "
+             f"{first['reps']} interleaved rounds of every call, medians ({first.get('clock', 'wall clock')}, as "
+             "raylab_bench's), on every ray raylab_bench traced (its "
              "camera framing the mesh, its camera with sky around the mesh, its random rays), right after "
              "raylab_bench's run on the same mesh, whose one-thread medians (its one-thread runs pinned too) give "
              "Embree 3 medium's single rays (`rtcIntersect1` / `rtcOccluded1`) and packets (`rtcIntersect8` / "
@@ -188,6 +189,24 @@ def api_markdown(api):
                   + ", ".join(f"{name} {e['embree_packets_differ_from_single']}" for name, e in ex.items())
                   + " (only rays aimed exactly at edges and vertices differ: Embree's test is not watertight, and "
                   "its packet and single-ray kernels round such a ray apart)."]
+    return lines + [""]
+
+
+def render_markdown(render):
+    """F12's renderer against the baseline checkout's: one row per scene and super sampling."""
+    lines = ["## F12's renderer against the baseline's", "",
+             f"`raylab.render` on one thread, one core pinned, against the renderer of `{render['baseline']}`: "
+             f"each render in its own process, the two alternating ({render['rounds']} rounds of "
+             f"{render['renders_per_process']} renders), medians; speed-up = the baseline's seconds / this "
+             "checkout's (above 1: faster), by the renderer's own timer and by process CPU time. Exact contract, "
+             "one point light with shadows, recursion 3.", "",
+             "| scene | pixels | super sampling | baseline s | this s | speed-up | CPU-time speed-up |",
+             "|---|---|---|---|---|---|---|"]
+    for r in render["rows"]:
+        lines.append(f"| {r['scene']} ({r['triangles']:,} triangles) | {r['width']} x {r['height']} "
+                     f"| {r['super_sampling']} | {r['baseline_render_seconds_median']:.3f} "
+                     f"| {r['this_render_seconds_median']:.3f} | {r['speedup_render_seconds']:.2f} "
+                     f"| {r['speedup_cpu_seconds']:.2f} |")
     return lines + [""]
 
 
@@ -397,6 +416,8 @@ def markdown(results):
         cells = [next(r for r in sh["rows"] if r["scale"] == scale and r["method"] == m) for m in methods]
         lines.append(f"| {scale:g} | " + " | ".join(f"{c['false_self_hits']} ({100 * c['fraction']:.1f}%)"
                                                    for c in cells) + " |")
+    if results.get("render"):
+        lines += [""] + render_markdown(results["render"])
     if results.get("animation"):
         lines += [""] + animation_markdown(results["animation"])
     if results.get("builders"):
