@@ -141,6 +141,28 @@ def api_goal_lines(api):
     return lines
 
 
+def api_summary_lines(api):
+    """The README's table: per mesh and API target, `intersect`'s ratios to Embree's single rays and packets
+    on each ray set and contract, and the fixed cost per ray (exact contract)."""
+    lines = ["| mesh (camera hit %: framing / sky) | API | exact / single: camera | sky | random | exact / packets: "
+             "camera | sky | fast / packets: camera | sky | fast / single: random | ns per ray missing the root: "
+             "intersect | occluded |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for name, mesh in api["meshes"].items():
+        by = {(r["target"], r["contract"], r["rays"], r["query"]): r for r in mesh["rows"]}
+        for target in ("Structure", "Scene"):
+            get = lambda c, s, k: by[(target, c, s, "intersect")][k]  # noqa: E731
+            hits = f"{100 * get('exact', 'camera', 'hit_share'):.0f} / {100 * get('exact', 'camera_sky', 'hit_share'):.0f}"
+            cells = [get("exact", s, "ratio_to_embree_1") for s in ("camera", "camera_sky", "random")]
+            cells += [get("exact", s, "ratio_to_embree_8") for s in ("camera", "camera_sky")]
+            cells += [get("fast", s, "ratio_to_embree_8") for s in ("camera", "camera_sky")]
+            cells += [get("fast", "random", "ratio_to_embree_1")]
+            door = [by[(target, "exact", "missing_root", q)]["ns_per_ray"] for q in ("intersect", "occluded")]
+            lines.append(f"| {name} ({by[(target, 'exact', 'camera', 'intersect')]['triangles']:,}; {hits}) "
+                         f"| {target} | " + " | ".join("-" if x is None else f"{x:.2f}" for x in cells)
+                         + " | " + " | ".join(f"{x:.1f}" for x in door) + " |")
+    return lines
+
+
 def api_markdown(api):
     """The user's path: the goal table, then per mesh every call's rays/s and ratios, then the door."""
     first = next(iter(api["meshes"].values()), {"reps": 0, "pinned_core": None})
@@ -156,6 +178,8 @@ def api_markdown(api):
              "same contract). Ratios: rays per second, above 1 is raylab faster; `intersect` against Embree's "
              "closest hit, `occluded` against its occlusion.", ""]
     lines += api_goal_lines(api) + [""]
+    lines += ["Per mesh (`intersect`, ratios of rays per second; the README's table):", ""]
+    lines += api_summary_lines(api) + ["", "Every call:", ""]
     lines += ["| mesh | rays (hit) | contract | query | Structure Mrays/s | Scene | C++ core | Embree single "
               "| Embree packets | Structure / single | / packets | Scene / single | / packets | Structure / C++ |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
