@@ -16,7 +16,7 @@ def test_render_experiment_runs_against_a_baseline(tmp_path):
                     "--out", str(tmp_path)], cwd=ROOT, check=True, timeout=300, stdout=subprocess.DEVNULL)
     result = json.loads((tmp_path / "render.json").read_text())
     assert result["baseline"] == str(ROOT)
-    expected = {(name, ss) for name, _, _, levels in QUICK["render"]["scenes"] for ss in levels}
+    expected = {(name, ss) for name, _, _, levels, _ in QUICK["render"]["scenes"] for ss in levels}
     assert {(r["scene"], r["super_sampling"]) for r in result["rows"]} == expected
     for row in result["rows"]:
         assert row["triangles"] > 0

@@ -49,7 +49,8 @@ FULL = {
     # timed by CPU time: the API then too, since the two run in separate processes on a shared machine).
     # F12's renderer (raylab.render, one thread) against a baseline checkout's, each render in its own
     # process, the two alternating: the demo's goat head over a floor and the dragon at 1.6M triangles.
-    "render": {"rounds": 5, "renders": 3, "scenes": [("demo", 160, 120, [1, 2, 3]), ("dragon_1600k", 640, 480, [1])]},
+    # Each scene: name, width, height, super samplings, renders per process.
+    "render": {"rounds": 5, "scenes": [("demo", 160, 120, [1, 2, 3], 15), ("dragon_1600k", 640, 480, [1], 3)]},
     "api": {"reps": 7, "native": ["--cpu-time", "--camera", "512x384", "--random-rays", "100000", "--hostile-rays", "0",
                                   "--export-rays", "0", "--reps", "7", "--build-reps", "1", "--rep-seconds", "0.08",
                                   "--threads", "1", "--structures", "bvh", "--embree", "medium"]},
@@ -65,7 +66,7 @@ QUICK = {
     "self_hits": {"scales": [1e-3, 1, 1e5], "width": 24, "height": 18},
     "animation": {"mesh": "bunny_hr", "frames": 24, "camera": 96, "random_rays": 10000, "reps": 5},
     "builders": {"meshes": ["goathead"], "camera": 64, "random_rays": 5000, "reps": 1},
-    "render": {"rounds": 2, "renders": 1, "scenes": [("demo", 80, 60, [1, 2])]},
+    "render": {"rounds": 2, "scenes": [("demo", 80, 60, [1, 2], 1)]},
     "api": {"reps": 3, "native": ["--cpu-time", "--camera", "96x72", "--random-rays", "5000", "--hostile-rays", "0",
                                   "--export-rays", "0", "--reps", "3", "--build-reps", "1", "--rep-seconds", "0.01",
                                   "--threads", "1", "--structures", "bvh", "--embree", "medium"]},

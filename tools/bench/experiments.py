@@ -518,12 +518,12 @@ def run_render(config, baseline):
     times = {}
     for round_ in range(cfg["rounds"]):
         order = ["baseline", "this"] if round_ % 2 == 0 else ["this", "baseline"]
-        for name, width, height, levels in cfg["scenes"]:
+        for name, width, height, levels, renders in cfg["scenes"]:
             for which in order:
                 done = subprocess.run(
                     [sys.executable, "-m", "tools.bench.render_worker", "--scene", name, "--size",
                      f"{width}x{height}", "--super-sampling", ",".join(map(str, levels)), "--renders",
-                     str(cfg["renders"])], cwd=ROOT, env=os.environ | {"RAYLAB_BENCH_ADDON": addons[which]},
+                     str(renders)], cwd=ROOT, env=os.environ | {"RAYLAB_BENCH_ADDON": addons[which]},
                     check=True, capture_output=True, text=True)
                 out = json.loads(done.stdout)
                 for ss, r in out["renders"].items():
@@ -541,4 +541,4 @@ def run_render(config, baseline):
             row[f"speedup_{clock}"] = row[f"baseline_{clock}_median"] / row[f"this_{clock}_median"]
         rows.append(row)
     return {"rows": rows, "baseline": str(Path(baseline).resolve()), "rounds": cfg["rounds"],
-            "renders_per_process": cfg["renders"]}
+            "renders_per_process": {name: renders for name, *_, renders in cfg["scenes"]}}

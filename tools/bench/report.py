@@ -220,8 +220,8 @@ def render_markdown(render):
     """F12's renderer against the baseline checkout's: one row per scene and super sampling."""
     lines = ["## F12's renderer against the baseline's", "",
              f"`raylab.render` on one thread, one core pinned, against the renderer of `{render['baseline']}`: "
-             f"each render in its own process, the two alternating ({render['rounds']} rounds of "
-             f"{render['renders_per_process']} renders), medians; speed-up = the baseline's seconds / this "
+             f"each render in its own process, the two alternating ({render['rounds']} rounds; renders per "
+             "process: " + ", ".join(f"{k} {v}" for k, v in render["renders_per_process"].items()) + "), medians; speed-up = the baseline's seconds / this "
              "checkout's (above 1: faster), by the renderer's own timer and by process CPU time. Exact contract, "
              "one point light with shadows, recursion 3.", "",
              "| scene | pixels | super sampling | baseline s | this s | speed-up | CPU-time speed-up |",
