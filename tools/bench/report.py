@@ -467,3 +467,7 @@ def publish(results, out):
         log(f"published {target.relative_to(ROOT)}")
     shutil.copyfile(out / "results.md", ROOT / "docs" / "bench" / "results.md")
     log("published docs/bench/results.md")
+    # The user's path run alone (--only api, CPU-timed on both sides: the README's tables) when there is one.
+    if (out / "api.md").exists():
+        shutil.copyfile(out / "api.md", ROOT / "docs" / "bench" / "api.md")
+        log("published docs/bench/api.md")
