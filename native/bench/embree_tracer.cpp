@@ -6,6 +6,7 @@
 #include <pmmintrin.h>
 #include <xmmintrin.h>
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 #include <string>
@@ -58,6 +59,56 @@ void occluded1(RTCScene scene, RTCRay& ray) {
   rtcOccluded1(scene, &context, &ray);
 }
 #endif
+
+// A run of up to 8 rays as Embree's packet: the active lanes' valid word is -1, the others' 0 (their
+// fields zeroed, never read). The packet structs must be 32-byte aligned: RTC_ALIGN(32) on the types,
+// and the callers keep them on the stack.
+constexpr size_t kPacket = 8;
+
+void fill_packet(std::span<const Ray> rays, int (&valid)[kPacket], RTCRay8& p) {
+  for (size_t k = 0; k < kPacket; ++k) {
+    const bool active = k < rays.size();
+    const Ray ray = active ? rays[k] : Ray{};
+    valid[k] = active ? -1 : 0;
+    p.org_x[k] = ray.origin.x, p.org_y[k] = ray.origin.y, p.org_z[k] = ray.origin.z;
+    p.dir_x[k] = ray.direction.x, p.dir_y[k] = ray.direction.y, p.dir_z[k] = ray.direction.z;
+    p.tnear[k] = active ? ray.tmin : 0.0f, p.tfar[k] = active ? ray.tmax : -kInfinity;
+    p.time[k] = 0.0f, p.mask[k] = 0xffffffffu, p.id[k] = unsigned(k), p.flags[k] = 0;
+  }
+}
+
+#if RAYLAB_EMBREE_MAJOR >= 4
+void intersect8(const int* valid, RTCScene scene, RTCRayHit8& rh) {
+  RTCIntersectArguments args;
+  rtcInitIntersectArguments(&args);
+  args.flags = RTC_RAY_QUERY_FLAG_COHERENT;
+  rtcIntersect8(valid, scene, &rh, &args);
+}
+void occluded8(const int* valid, RTCScene scene, RTCRay8& ray) {
+  RTCOccludedArguments args;
+  rtcInitOccludedArguments(&args);
+  args.flags = RTC_RAY_QUERY_FLAG_COHERENT;
+  rtcOccluded8(valid, scene, &ray, &args);
+}
+#else
+void intersect8(const int* valid, RTCScene scene, RTCRayHit8& rh) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcIntersect8(valid, scene, &context, &rh);
+}
+void occluded8(const int* valid, RTCScene scene, RTCRay8& ray) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcOccluded8(valid, scene, &context, &ray);
+}
+#endif
+
+// Whole packets per TBB task: kGrain rays.
+tbb::blocked_range<size_t> packet_range(size_t rays) {
+  return tbb::blocked_range<size_t>(0, (rays + kPacket - 1) / kPacket, kGrain / kPacket);
+}
 
 }  // namespace
 
@@ -132,6 +183,48 @@ void EmbreeTracer::any(std::span<const Ray> rays, std::span<uint8_t> occluded) c
       RTCRay rr = embree_ray(rays[i]);
       occluded1(scene_, rr);
       occluded[i] = rr.tfar == -kInfinity;  // Embree marks an occluded ray by tfar = -inf
+    }
+  });
+}
+
+void EmbreeTracer::closest_packets(std::span<const Ray> rays, std::span<Hit> hits) const {
+  tbb::parallel_for(packet_range(rays.size()), [&](const tbb::blocked_range<size_t>& r) {
+    DenormalsOff mode;
+    for (size_t p = r.begin(); p != r.end(); ++p) {
+      const size_t first = p * kPacket, count = std::min(kPacket, rays.size() - first);
+      alignas(32) int valid[kPacket];
+      alignas(32) RTCRayHit8 rh;
+      fill_packet(rays.subspan(first, count), valid, rh.ray);
+      for (size_t k = 0; k < kPacket; ++k) {
+        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+      }
+      intersect8(valid, scene_, rh);
+      for (size_t k = 0; k < count; ++k) {
+        Hit h;
+        if (rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
+          h.t = rh.ray.tfar[k];
+          h.u = rh.hit.u[k];
+          h.v = rh.hit.v[k];
+          h.triangle = rh.hit.primID[k];
+          h.instance = 0;
+        }
+        hits[first + k] = h;
+      }
+    }
+  });
+}
+
+void EmbreeTracer::any_packets(std::span<const Ray> rays, std::span<uint8_t> occluded) const {
+  tbb::parallel_for(packet_range(rays.size()), [&](const tbb::blocked_range<size_t>& r) {
+    DenormalsOff mode;
+    for (size_t p = r.begin(); p != r.end(); ++p) {
+      const size_t first = p * kPacket, count = std::min(kPacket, rays.size() - first);
+      alignas(32) int valid[kPacket];
+      alignas(32) RTCRay8 ray;
+      fill_packet(rays.subspan(first, count), valid, ray);
+      occluded8(valid, scene_, ray);
+      for (size_t k = 0; k < count; ++k) occluded[first + k] = ray.tfar[k] == -kInfinity;
     }
   });
 }

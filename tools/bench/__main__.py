@@ -9,14 +9,18 @@ from pathlib import Path
 
 from . import FULL, QUICK, ROOT, __doc__ as package_doc, log
 from .charts import chart_animation, write_charts
-from .experiments import run_animation, run_builders, run_door, run_leaks, run_self_hits, run_thesis
-from .report import animation_markdown, builders_markdown, door_markdown, markdown, publish
+from .experiments import (api_result, only_api, run_animation, run_api, run_builders, run_leaks, run_render,
+                          run_self_hits, run_thesis)
+from .report import animation_markdown, api_markdown, builders_markdown, markdown, publish, render_markdown
 from .run import bench_binary, run_blender, run_native
 
 
-# The experiments --only runs alone: how each is measured and how it is reported.
+
+
+# The experiments --only runs alone: how each is measured and how it is reported. `api` (alias `door`, its
+# first part) runs raylab_bench first, for its rays and Embree's times.
 ONLY = {"animation": (run_animation, animation_markdown), "builders": (run_builders, builders_markdown),
-        "door": (run_door, door_markdown)}
+        "api": (only_api, api_markdown), "door": (only_api, api_markdown), "render": (run_render, render_markdown)}
 
 
 def main():
@@ -29,7 +33,11 @@ def main():
                         help="redraw the charts and the table from <out>/results.json, measuring nothing")
     parser.add_argument("--only", choices=sorted(ONLY),
                         help="run one experiment alone: writes <out>/animation.json, .md and bench_animation.png, "
-                             "or <out>/builders.json and .md, or <out>/door.json and .md")
+                             "or <out>/builders.json and .md, or <out>/api.json and .md (the user's path; door: "
+                             "the same)")
+    parser.add_argument("--baseline", metavar="CHECKOUT",
+                        help="a checkout whose add-on holds its built module (last turn's main, say): F12's renderer "
+                             "is measured against its renderer (--only render, or within the full run)")
     parser.add_argument("--publish", action="store_true",
                         help="copy the charts of a full run into the levels that show them (and the README)")
     args = parser.parse_args()
@@ -47,7 +55,16 @@ def main():
     if args.only:
         run, to_markdown = ONLY[args.only]
         out.mkdir(parents=True, exist_ok=True)
-        result = run(config)
+        if run is only_api:
+            data = out / "data"
+            data.mkdir(parents=True, exist_ok=True)
+            result = run(config, bench_binary(args.build_dir), data)
+        elif run is run_render:
+            if not args.baseline:
+                parser.error("--only render needs --baseline CHECKOUT")
+            result = run(config, args.baseline)
+        else:
+            result = run(config)
         if args.only == "animation":
             chart_animation({"animation": result}, out / "bench_animation.png")
         (out / f"{args.only}.json").write_text(json.dumps(result, indent=1))
@@ -60,20 +77,26 @@ def main():
     data.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
 
-    native = run_native(config, bench_binary(args.build_dir), data)
+    # The user's path: each mesh's API timing right after its own raylab_bench run, on its rays.
+    api = {}
+    native = run_native(config, bench_binary(args.build_dir), data,
+                        after_each=lambda name, mesh: api.update({name: run_api(config, data, name, mesh)}))
+    user_path = api_result(native, api)
     blender = {} if args.no_blender else run_blender(config, data, native)
     thesis = run_thesis(config)
     leaks = run_leaks(config, data)
     self_hits = run_self_hits(config)
     animation = run_animation(config)
     builders = run_builders(config)
+    render = run_render(config, args.baseline) if args.baseline else None
     first = next(iter(native.values()))
     results = {"configuration": "quick" if args.quick else "full",
                "machine": {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
                            "hardware_threads": first["hardware_threads"], "embree": first["embree_version"],
                            "platform": platform.platform()},
                "meshes": native, "blender": blender, "thesis": thesis, "leaks": leaks, "self_hits": self_hits,
-               "animation": animation, "builders": builders}
+               "animation": animation, "builders": builders, "api": user_path,
+               "render": render}
     results["charts"] = write_charts(results, out)
     results["seconds_total"] = time.perf_counter() - started
     (out / "results.json").write_text(json.dumps(results, indent=1))

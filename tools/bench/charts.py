@@ -14,7 +14,7 @@ from .run import run_lookup
 
 MESH_COLORS = ["#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02"]
 STRUCTURE_COLORS = {"none": "#7f7f7f", "aabb": "#2ca02c", "octree": "#ff7f0e", "bvh": "#1f77b4", "grid": "#9467bd"}
-TRACER_LABELS = {"embree_medium": "Embree med.", "embree_high": "Embree high"}
+TRACER_LABELS = {"embree_medium": "Embree med.", "embree_packets": "Embree pkt.", "embree_high": "Embree high"}
 
 
 def short_count(x):
@@ -70,7 +70,7 @@ def chart_throughput(results, path):
     """Closest-hit rays per second (2 threads; Blender's BVHTree on 1) of every tracer on every mesh: a
     row per tracer, a dot per mesh. A square for camera rays, one for random rays."""
     meshes = list(results["meshes"])
-    names = list(raylab.STRUCTURES) + ["embree_medium", "embree_high"]
+    names = list(raylab.STRUCTURES) + ["embree_medium", "embree_packets", "embree_high"]
     fig = page.figure(2)
     for tile, ray_set in enumerate(("camera", "random")):
         page.title(fig, tile, f"{ray_set} rays per second")
@@ -98,7 +98,9 @@ def chart_ratios(results, path):
     """raylab's BVH against Embree (medium) on the same rays, 2 threads: every ratio turned so that
     right of 1 is raylab better (rays per second ours / theirs; build time and memory theirs / ours)."""
     meshes = list(results["meshes"])
+    # (ratio key, label, inverse, against Embree's packets rather than its single rays)
     keys = [("camera_closest_2t_rays_per_second", "camera", False),
+            ("camera_closest_2t_rays_per_second", "camera/pkt.", False, True),
             ("camera_any_2t_rays_per_second", "camera any", False),
             ("random_closest_2t_rays_per_second", "random", False),
             ("random_any_2t_rays_per_second", "random any", False),
@@ -109,15 +111,15 @@ def chart_ratios(results, path):
     ax = fig.add_axes(page.rect(fig, 0, 0.44, 0.43, 0.52, 0.38))
     for i, m in enumerate(meshes):
         bvh = {x["name"]: x for x in results["meshes"][m]["tracers"]}.get("bvh", {})
-        ratios = bvh.get("ratios_to_embree_medium", {})
-        for row, (key, _, inverse) in enumerate(keys):
+        for row, (key, _, inverse, *packets) in enumerate(keys):
+            ratios = bvh.get("ratios_to_embree_packets" if packets else "ratios_to_embree_medium", {})
             if ratios.get(key):
                 ax.plot(1.0 / ratios[key] if inverse else ratios[key], row, "o", color=MESH_COLORS[i], ms=10,
                         alpha=0.85)
     ax.axvline(1.0, color="black", lw=2)
     ax.set_xlim(0.4, 1.8)
     ax.set_xticks([0.5, 1.0, 1.5])
-    ax.set_yticks(range(len(keys)), [label for _, label, _ in keys])
+    ax.set_yticks(range(len(keys)), [label for _, label, *_ in keys])
     ax.set_ylim(len(keys) - 0.5, -0.5)
     ax.grid(axis="x", alpha=0.4)
     mesh_legend(fig, 0, meshes, results, top=0.31)

@@ -11,6 +11,7 @@ import numpy as np
 import raylab
 
 from . import MESH_DIR, log
+from .run import run_lookup, run_native
 
 # The VRT thesis, section 6.1, Tables 1-4: goat head in front of the camera, render seconds (average
 # of 3 trials) and ray-triangle tests. Its octree never accelerated anything (Unity's raycast hid
@@ -366,51 +367,178 @@ def run_builders(config):
     return {"rows": out, "camera": cfg["camera"], "random_rays": cfg["random_rays"], "reps": cfg["reps"]}
 
 
-# ---------------------------------------------------------------- the door: what the Python API adds
+# ---------------------------------------------------------------- the user's path: `import raylab`
 
-def run_door(config):
-    """The fixed cost per ray of the Python API's batch queries, where users meet them: numpy arrays in,
-    numpy arrays out. Rays that all miss the root box (so no box or triangle test past the root's
-    children), on one core (this process pinned to its first allowed core), through Structure and Scene
-    intersect and occluded, interleaved rounds, median ns per ray. Beside them the camera rays framing
-    each mesh through the same calls (Mrays/s), whose difference from the C++ core is this door."""
-    from raylab import rays
+# The queries timed through the API, each with the query of raylab_bench it answers like.
+API_QUERIES = (("intersect", "closest"), ("occluded", "any"))
+# raylab_bench's ray sets the API traces (it exports every ray of them: <mesh>.trace_<set>.npy), and the
+# rays that all miss the root box: the door's fixed cost per ray.
+API_SETS = ("camera", "camera_sky", "random")
+MISSING = "missing_root"
 
-    cfg = config["door"]
-    pinned = sorted(os.sched_getaffinity(0))[:1] if hasattr(os, "sched_getaffinity") else None
-    if pinned:
-        saved = os.sched_getaffinity(0)
-        os.sched_setaffinity(0, pinned)
-    try:
-        out = []
-        for name in cfg["meshes"]:
-            V, T = raylab.load_mesh(MESH_DIR / f"{name}.obj")
-            structure = raylab.build(V, T)
-            scene = raylab.Scene()
-            scene.add_instance(scene.add_mesh(V, T), np.eye(4))
-            scene.commit()
-            n = cfg["rays"]
-            lo, hi = V.min(axis=0), V.max(axis=0)
-            outside = np.tile((hi + (hi - lo)).astype(np.float32), (n, 1))  # beyond the box, looking away
-            away = np.tile(np.float32([0, 0, 1]), (n, 1))
-            camera = rays.camera_rays(V, cfg["camera"])
-            calls = {f"{target} {query} {kind}": (getattr(obj, query), arrays)
-                     for target, obj in (("Structure", structure), ("Scene", scene))
-                     for query in ("intersect", "occluded")
-                     for kind, arrays in (("missing the root", (outside, away)), ("camera", camera))}
-            seconds = {key: [] for key in calls}
-            for _ in range(cfg["reps"]):  # interleaved: the machine's drift falls on every call alike
-                for key, (call, (origins, directions)) in calls.items():
-                    start = time.perf_counter()
-                    call(origins, directions, threads=1)
-                    seconds[key].append(time.perf_counter() - start)
-            row = dict(mesh=name, triangles=len(T), rays_missing=n, camera_rays=len(camera[0]))
-            for key, (_, (origins, _)) in calls.items():
-                median = statistics.median(seconds[key])
-                row[key] = 1e9 * median / len(origins) if "missing" in key else len(origins) / median / 1e6
-            out.append(row)
-            log(f"door on {name} done")
-    finally:
-        if pinned:
-            os.sched_setaffinity(0, saved)
-    return {"rows": out, "reps": cfg["reps"], "pinned_core": pinned[0] if pinned else None}
+
+class OneCore:
+    """This process pinned to its first allowed core while the block runs (as raylab_bench pins its
+    one-thread runs), its affinity restored after."""
+
+    def __enter__(self):
+        self.saved = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+        self.core = min(self.saved) if self.saved else None
+        if self.saved:
+            os.sched_setaffinity(0, {self.core})
+        return self
+
+    def __exit__(self, *_):
+        if self.saved:
+            os.sched_setaffinity(0, self.saved)
+
+
+def api_rays(data_dir, name):
+    """raylab_bench's exported rays of the API's sets as C-contiguous float32 (N,3) origins and
+    directions (what a caller hands the API), and as many rays beyond the mesh's box looking away."""
+    sets = {}
+    for ray_set in API_SETS:
+        rows = np.load(data_dir / f"{name}.trace_{ray_set}.npy")
+        sets[ray_set] = (np.ascontiguousarray(rows[:, 0:3]), np.ascontiguousarray(rows[:, 4:7]))
+    V = np.load(data_dir / f"{name}.vertices.npy")
+    n = len(sets["camera"][0])
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    sets[MISSING] = (np.tile((hi + (hi - lo)).astype(np.float32), (n, 1)), np.tile(np.float32([0, 0, 1]), (n, 1)))
+    return sets
+
+
+def run_api(config, data_dir, name, native_mesh):
+    """The user's path on one mesh of raylab_bench's run: `raylab.build(...)` and a `raylab.Scene` with one
+    instance, in each contract, tracing raylab_bench's own rays (every ray of the camera framing the
+    mesh, the camera with sky around it and the random set) with `intersect` and `occluded`, numpy in
+    and numpy out, threads=1, this process pinned to one core, the calls' rounds interleaved, medians.
+    Rays/s of each, and its ratio to Embree's single rays (rtcIntersect1 / rtcOccluded1), Embree's
+    packets (rtcIntersect8 / rtcOccluded8) and raylab's C++ core (raylab_bench's bvh, same contract) on
+    the same set and query, one thread, from the raylab_bench run just before on this mesh. Rays that
+    all miss the root box give the door's fixed cost per ray (ns)."""
+    cfg = config["api"]
+    V = np.load(data_dir / f"{name}.vertices.npy")
+    T = np.load(data_dir / f"{name}.triangles.npy")
+    sets = api_rays(data_dir, name)
+    targets = {}
+    for contract in raylab.CONTRACTS:
+        targets[("Structure", contract)] = raylab.build(V, T, contract=contract)
+        scene = raylab.Scene(contract=contract)
+        scene.add_instance(scene.add_mesh(V, T), np.eye(4))
+        scene.commit()
+        targets[("Scene", contract)] = scene
+    calls = {(target, contract, ray_set, query): (getattr(obj, query), sets[ray_set])
+             for (target, contract), obj in targets.items() for ray_set in sets for query, _ in API_QUERIES}
+    hit_share = {ray_set: float(targets[("Structure", "exact")].intersect(*rays).hit.mean())
+                 for ray_set, rays in sets.items()}
+    seconds = {key: [] for key in calls}
+    # The clock raylab_bench used: its process's CPU time (--cpu-time: the time other processes held the
+    # core left out, on both sides of the ratio) or the wall clock.
+    clock = time.process_time if native_mesh.get("clock") == "cpu" else time.perf_counter
+    with OneCore() as pin:
+        for call, (origins, directions) in calls.values():  # warm-up
+            call(origins, directions, threads=1)
+        for _ in range(cfg["reps"]):  # interleaved: the machine's drift falls on every call alike
+            for key, (call, (origins, directions)) in calls.items():
+                start = clock()
+                call(origins, directions, threads=1)
+                seconds[key].append(clock() - start)
+    tracers = {t["name"]: t for t in native_mesh["tracers"]}
+    reference = {"embree_1": tracers.get("embree_medium"), "embree_8": tracers.get("embree_packets")}
+    rows = []
+    for (target, contract, ray_set, query), times in seconds.items():
+        n = len(calls[(target, contract, ray_set, query)][1][0])
+        median = statistics.median(times)
+        row = dict(mesh=name, triangles=len(T), target=target, contract=contract, rays=ray_set, query=query,
+                   ray_count=n, hit_share=hit_share[ray_set], seconds_median=median, rays_per_second=n / median,
+                   ns_per_ray=1e9 * median / n)
+        if ray_set != MISSING:
+            native_query = dict(API_QUERIES)[query]
+            reference["core"] = tracers.get("bvh" if contract == "exact" else f"bvh_{contract}")
+            for key, tracer in reference.items():
+                other = run_lookup(tracer, ray_set, native_query, 1) if tracer else None
+                row[f"{key}_rays_per_second"] = other["rays_per_second"] if other else None
+                row[f"ratio_to_{key}"] = row["rays_per_second"] / other["rays_per_second"] if other else None
+        rows.append(row)
+    log(f"the user's path on {name} done")
+    return {"rows": rows, "reps": cfg["reps"], "pinned_core": pin.core,
+            "clock": "process CPU time" if clock is time.process_time else "wall clock"}
+
+
+def api_result(native, api):
+    """The user's path of every mesh with what the goal table reads from raylab_bench beside it: the exact
+    BVH's wrong answers and the unexplained disagreements with Embree."""
+    return {"meshes": api, "exactness": {name: exactness_summary(mesh) for name, mesh in native.items()}}
+
+
+def exactness_summary(mesh):
+    tracers = {t["name"]: t for t in mesh["tracers"]}
+    exact = tracers.get("bvh") or {}
+    wrong = sum(s["wrong"] for s in (exact.get("exactness") or {}).values())
+    rays = sum(s["rays"] for s in (exact.get("exactness") or {}).values())
+    unexplained = sum(counts.get("unexplained", 0)
+                      for t in mesh["tracers"] if t["kind"] == "raylab" and not t["error"]
+                      for per in t["tracing"]["per_ray_set"].values()
+                      for counts in per["agreement_with_embree"].values())
+    packets = tracers.get("embree_packets") or {}
+    differ = sum(a["rays"] - a["closest"]["same"]
+                 for per in packets.get("tracing", {}).get("per_ray_set", {}).values()
+                 for a in [per["agreement_with_single_rays"]])
+    return {"exact_wrong": wrong, "exact_judged": rays, "unexplained": unexplained,
+            "embree_packets_differ_from_single": differ}
+
+
+def only_api(config, binary, data):
+    """raylab_bench with the API's "native" arguments (the BVH in both contracts, Embree's single rays and
+    packets, one thread) and, right after it on each mesh, the user's path on its rays."""
+    api = {}
+    native = run_native(config, binary, data, arguments=config["api"]["native"],
+                        after_each=lambda name, mesh: api.update({name: run_api(config, data, name, mesh)}))
+    return api_result(native, api)
+
+
+# ---------------------------------------------------------------- F12's renderer against a baseline's
+
+def run_render(config, baseline):
+    """raylab.render (what F12 runs) on one thread against the renderer of another checkout (`baseline`,
+    whose add-on holds its built module: last turn's main, say): each render in its own process
+    (tools/bench/render_worker.py, pinned to one core), the two checkouts alternating and which goes
+    first swapped every round, medians over every round's renders. Speed-up: the baseline's median
+    seconds over this checkout's (above 1: this one is faster), by the renderer's own timer and by the
+    process's CPU time."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from . import ROOT
+
+    cfg = config["render"]
+    addons = {"baseline": str(Path(baseline).resolve() / "addon"), "this": str(ROOT / "addon")}
+    times = {}
+    for round_ in range(cfg["rounds"]):
+        order = ["baseline", "this"] if round_ % 2 == 0 else ["this", "baseline"]
+        for name, width, height, levels, renders in cfg["scenes"]:
+            for which in order:
+                done = subprocess.run(
+                    [sys.executable, "-m", "tools.bench.render_worker", "--scene", name, "--size",
+                     f"{width}x{height}", "--super-sampling", ",".join(map(str, levels)), "--renders",
+                     str(renders)], cwd=ROOT, env=os.environ | {"RAYLAB_BENCH_ADDON": addons[which]},
+                    check=True, capture_output=True, text=True)
+                out = json.loads(done.stdout)
+                for ss, r in out["renders"].items():
+                    entry = times.setdefault((name, int(ss)), {"triangles": out["triangles"], "width": width,
+                                                               "height": height})
+                    for clock in ("render_seconds", "cpu_seconds"):
+                        entry.setdefault(f"{which}_{clock}", []).extend(r[clock])
+        log(f"render round {round_ + 1} of {cfg['rounds']} done")
+    rows = []
+    for (name, ss), e in times.items():
+        row = dict(scene=name, super_sampling=ss, triangles=e["triangles"], width=e["width"], height=e["height"])
+        for clock in ("render_seconds", "cpu_seconds"):
+            row[f"baseline_{clock}_median"] = statistics.median(e[f"baseline_{clock}"])
+            row[f"this_{clock}_median"] = statistics.median(e[f"this_{clock}"])
+            row[f"speedup_{clock}"] = row[f"baseline_{clock}_median"] / row[f"this_{clock}_median"]
+        rows.append(row)
+    return {"rows": rows, "baseline": str(Path(baseline).resolve()), "rounds": cfg["rounds"],
+            "renders_per_process": {name: renders for name, *_, renders in cfg["scenes"]}}

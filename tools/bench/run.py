@@ -37,14 +37,19 @@ def mesh_spec(source):
     return str(MESH_DIR / source)
 
 
-def run_native(config, binary, data_dir):
+def run_native(config, binary, data_dir, arguments=None, after_each=None):
+    """raylab_bench on every mesh of the configuration (with `arguments`, or the configuration's), each
+    mesh's results read back with their ratios; `after_each(name, results)` runs right after each mesh's
+    run, so that what it measures (the user's path) lies next to it in time."""
     results = {}
     for name, source in config["meshes"]:
         log(f"raylab_bench {name}")
         subprocess.run([str(binary), "--mesh", mesh_spec(source), "--name", name, "--out", str(data_dir),
-                        *config["native"]], check=True)
+                        *(arguments or config["native"])], check=True)
         results[name] = json.loads((data_dir / f"{name}.json").read_text())
         add_ratios(results[name])
+        if after_each:
+            after_each(name, results[name])
     return results
 
 
@@ -57,17 +62,23 @@ def run_lookup(tracer, ray_set, query, threads):
 
 def add_ratios(mesh):
     """raylab / Embree (medium) for every raylab structure: rays/s ratios (< 1: slower than Embree),
-    build-time and memory ratios (> 1: slower / bigger)."""
+    build-time and memory ratios (> 1: slower / bigger); and rays/s against Embree's packet API
+    (embree_packets: rtcIntersect8 / rtcOccluded8 on the medium scene) where it ran."""
     tracers = {t["name"]: t for t in mesh["tracers"]}
-    embree = tracers["embree_medium"]
+    embree, packets = tracers["embree_medium"], tracers.get("embree_packets")
     for t in mesh["tracers"]:
         if t["kind"] != "raylab" or t["error"]:
             continue
-        ratios = {}
+        ratios, to_packets = {}, {}
         for run in t["tracing"]["runs"]:
             ref = run_lookup(embree, run["rays"], run["query"], run["threads"])
             key = f'{run["rays"]}_{run["query"]}_{run["threads"]}t_rays_per_second'
             ratios[key] = run["rays_per_second"] / ref["rays_per_second"]
+            ref = run_lookup(packets, run["rays"], run["query"], run["threads"]) if packets else None
+            if ref:
+                to_packets[key] = run["rays_per_second"] / ref["rays_per_second"]
+        if packets:
+            t["ratios_to_embree_packets"] = to_packets
         for threads, build in t["build"].items():
             ratios[f"build_{threads}t_seconds"] = build["seconds_median"] / embree["build"][threads]["seconds_median"]
         ratios["memory_bytes"] = t["memory_bytes"] / max(1, embree["memory_bytes"])
