@@ -431,14 +431,30 @@ class Builder {
       note(why, SplitMethod::IndexMedian);
       return median(begin, end, left_info, right_info);
     }
-    if (builder_ != BvhBuilder::Sah) {
-      if (n <= max_leaf_size_) return begin;
-      switch (builder_) {
-        case BvhBuilder::Median: return object_median(info, begin, end, left_info, right_info, why);
-        case BvhBuilder::SpatialMedian: return spatial_median(info, begin, end, left_info, right_info, why);
-        default: return morton_split(begin, end, left_info, right_info, why);
-      }
+    // The other builders split every node of more than max_leaf_size_ (the SAH weighs a leaf's cost).
+    if (builder_ != BvhBuilder::Sah && n <= max_leaf_size_) return begin;
+// Every builder is a case and there is no default: a builder missing here is a compile error, never
+// a silent fallback to another builder's tree.
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic error "-Wswitch"
+#endif
+    switch (builder_) {
+      case BvhBuilder::Sah: return sah_split(info, binning, begin, end, left_info, right_info, why);
+      case BvhBuilder::Median: return object_median(info, begin, end, left_info, right_info, why);
+      case BvhBuilder::SpatialMedian: return spatial_median(info, begin, end, left_info, right_info, why);
+      case BvhBuilder::Lbvh: return morton_split(begin, end, left_info, right_info, why);
     }
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+    throw std::logic_error("BVH builder " + std::to_string(int(builder_)) + " has no split");
+  }
+
+  // The binned SAH's split (every split, swept by centroid, for nodes of kObjectSweepMax or fewer).
+  uint32_t sah_split(const RangeInfo& info, const Binning& binning, uint32_t begin, uint32_t end,
+                     RangeInfo& left_info, RangeInfo& right_info, Choice* why) {
+    const uint32_t n = end - begin;
     if (n <= kObjectSweepMax) return sweep_objects(info, begin, end, left_info, right_info, why);
 
     const Bins bins = bin(binning, begin, end);
