@@ -279,9 +279,11 @@ def _shared_panels():
                                    if hasattr(bpy.types, name)]
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.add('RAYLAB')
     bpy.app.timers.register(_flush_last_renders, persistent=True)
@@ -302,5 +304,4 @@ def unregister():
     _release_render_guard()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.discard('RAYLAB')
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()
