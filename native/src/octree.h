@@ -52,8 +52,8 @@ static_assert(sizeof(CornerRows) == 48);
 
 // Octant i of a box: bit 0 selects the upper half in x, bit 1 in y, bit 2 in z. Build and traversal
 // both derive boxes with this one function, so octants share their splitting planes bit for bit and
-// tile their parent exactly. Always inlined: GCC kept it a call inside the walk, about 5% of an
-// octree's camera-ray time on dragon.obj.
+// tile their parent exactly. Always inlined: GCC kept it a call inside the walk, a cost the walk
+// felt (docs/bench/history.md).
 [[gnu::always_inline]] inline Bounds octant_bounds(const Bounds& box, int octant) {
   const glm::vec3 mid = box.center();
   Bounds b;
@@ -311,8 +311,8 @@ class Octree final : public StructureBase<Octree> {
   }
 
   // Trivially constructible (glm vectors, not a Bounds with its empty-box initialiser): the walk's
-  // stack (then of 129 entries) was filled with empty boxes on every query, about a tenth of an octree's
-  // camera-ray time on dragon.obj.
+  // stack (then of 129 entries) was filled with empty boxes on every query, a cost the walk felt
+  // (docs/bench/history.md).
   struct StackEntry {
     glm::vec3 lo, hi;
     uint32_t node;
