@@ -16,10 +16,13 @@ class RAYLAB_AP_native_missing(bpy.types.AddonPreferences):
             box.label(text=line)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((RAYLAB_AP_native_missing,))
+
+
 def register():
     print(f"raylab: {native.ERROR}")
-    bpy.utils.register_class(RAYLAB_AP_native_missing)
+    _register_classes()
 
 
 def unregister():
-    bpy.utils.unregister_class(RAYLAB_AP_native_missing)
+    _unregister_classes()

@@ -38,8 +38,8 @@ class Children:
         return int(self._start[node + 1] - self._start[node])
 
     def below(self, node):
-        """The node and every node under it, level by level (numpy per level: a Python walk of the dragon's
-        root, a million nodes, took seconds)."""
+        """The node and every node under it, level by level (numpy per level: a Python walk of a million
+        nodes is too slow; docs/bench/history.md)."""
         found, frontier = [np.array([node], dtype=np.int64)], np.array([node], dtype=np.int64)
         while len(frontier):
             starts, ends = self._start[frontier], self._start[frontier + 1]

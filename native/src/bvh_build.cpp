@@ -21,18 +21,18 @@ namespace raylab {
 
 namespace {
 
-// Bins per axis. Embree's 4 + n / 20 (fewer for small nodes) measured 0-3% faster but cost 0.5-0.7%
-// of SAH cost and 1-1.4 bytes per triangle (bunny_hr, dragon, 1.3M sphere).
+// Bins per axis. Embree's 4 + n / 20 (fewer for small nodes) built barely faster for a worse SAH cost
+// and more bytes per triangle (docs/bench/history.md).
 constexpr int kBins = 16;
-// Nodes up to this size sort their primitives instead of binning them (sweep_objects): 0-7% faster
-// than binning them, with 0.1-0.9% less memory (fuller leaves); 8 gives binning's tree, 32 is slower.
+// Nodes up to this size sort their primitives instead of binning them (sweep_objects): faster than
+// binning them, with fuller leaves; 8 gives binning's tree, 32 is slower (docs/bench/history.md).
 constexpr uint32_t kObjectSweepMax = 16;
 constexpr uint32_t kTaskThreshold = 4096;              // smaller subtrees stay in the task that reaches them
 constexpr uint32_t kParallelScanThreshold = 1u << 16;  // larger nodes bin their primitives in parallel
 constexpr uint32_t kScanGrain = 1u << 13;
 constexpr ptrdiff_t kPrefetchAhead = 16;  // references (of 32 bytes) ahead of a scan: prefetch_ref
-// One node visit, in units of one leaf block test. Measured on bunny_hr, dragon and a 1.3M sphere:
-// 2 beats 1 by a few percent (fuller packets, fewer nodes) and higher values change nothing more.
+// One node visit, in units of one leaf block test: 2 beats 1 (fuller packets, fewer nodes) and higher
+// values change nothing more (docs/bench/history.md).
 constexpr float kTraversalCost = kSahTraversalCost;
 
 // A box in SSE registers (the w lanes are unused). Binning is the builder's inner loop: one min and
@@ -68,7 +68,7 @@ struct PrimRef {
 // nodes larger than the caches wait on memory otherwise (this machine's hardware prefetch does not
 // keep up). A prefetch never faults, so the address may lie outside the array; it is computed as an
 // integer, so that it need not be a valid pointer. It pays on meshes whose references pass the cache;
-// 16 ahead (8 and 32 within 1 %).
+// 16 ahead, 8 and 32 about as good (docs/bench/history.md).
 inline void prefetch_ref(const PrimRef* r, ptrdiff_t ahead) {
   _mm_prefetch(reinterpret_cast<const char*>(reinterpret_cast<uintptr_t>(r) + ahead * ptrdiff_t(sizeof(PrimRef))),
                _MM_HINT_T0);
@@ -431,14 +431,30 @@ class Builder {
       note(why, SplitMethod::IndexMedian);
       return median(begin, end, left_info, right_info);
     }
-    if (builder_ != BvhBuilder::Sah) {
-      if (n <= max_leaf_size_) return begin;
-      switch (builder_) {
-        case BvhBuilder::Median: return object_median(info, begin, end, left_info, right_info, why);
-        case BvhBuilder::SpatialMedian: return spatial_median(info, begin, end, left_info, right_info, why);
-        default: return morton_split(begin, end, left_info, right_info, why);
-      }
+    // The other builders split every node of more than max_leaf_size_ (the SAH weighs a leaf's cost).
+    if (builder_ != BvhBuilder::Sah && n <= max_leaf_size_) return begin;
+// Every builder is a case and there is no default: a builder missing here is a compile error, never
+// a silent fallback to another builder's tree.
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic error "-Wswitch"
+#endif
+    switch (builder_) {
+      case BvhBuilder::Sah: return sah_split(info, binning, begin, end, left_info, right_info, why);
+      case BvhBuilder::Median: return object_median(info, begin, end, left_info, right_info, why);
+      case BvhBuilder::SpatialMedian: return spatial_median(info, begin, end, left_info, right_info, why);
+      case BvhBuilder::Lbvh: return morton_split(begin, end, left_info, right_info, why);
     }
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+    throw std::logic_error("BVH builder " + std::to_string(int(builder_)) + " has no split");
+  }
+
+  // The binned SAH's split (every split, swept by centroid, for nodes of kObjectSweepMax or fewer).
+  uint32_t sah_split(const RangeInfo& info, const Binning& binning, uint32_t begin, uint32_t end,
+                     RangeInfo& left_info, RangeInfo& right_info, Choice* why) {
+    const uint32_t n = end - begin;
     if (n <= kObjectSweepMax) return sweep_objects(info, begin, end, left_info, right_info, why);
 
     const Bins bins = bin(binning, begin, end);
@@ -658,8 +674,8 @@ class Builder {
   // order[a] lists refs_[begin, begin + n) (n <= kObjectSweepMax) by centroid along axis a, equal
   // keys by primitive index (so that the order depends on the node's primitives, not on where earlier
   // partitions left them: explain_split repeats it). Each primitive's place is its rank, counted for the
-  // three axes at once without a branch. The insertion sort it replaces (the same order) was a fifth of
-  // the build, in mispredicted compares.
+  // three axes at once without a branch. The insertion sort it replaces (the same order) lost much of
+  // the build to mispredicted compares (docs/bench/history.md).
   void sort_centroids(uint32_t begin, uint32_t n, uint8_t (&order)[3][kObjectSweepMax]) const {
     // Keys as integers ordered as the floats are (+0 for -0, so that the two stay equal): a total
     // order, so that even NaN keys give a permutation.
@@ -844,8 +860,7 @@ BinaryBvh build_binary_bvh(uint32_t count, const BoundsSource& bounds_of, uint32
   if (count == 0) return bvh;
   // Every primitive's reference in parallel, describing them on the way (the root's description
   // without another pass over them); then, only when some box is empty, a stable pass leaves those
-  // out, and the root is described anew. Build time 0.98x (icosphere:8), 0.95x (dragon 1.6M), one
-  // thread, minimum of 3 x 9 builds.
+  // out, and the root is described anew: a shorter build than a second pass (docs/bench/history.md).
   HugeArray<PrimRef> refs = make_huge_array<PrimRef>(count);
   struct Made {
     RangeInfo info;

@@ -218,7 +218,7 @@ class Grid final : public StructureBase<Grid> {
   std::vector<uint32_t> triangles_;  // the cells' runs, one after another
   // Bit per cell: non-empty. The walk reads it for every cell it passes and the offsets only for the
   // non-empty ones: 1/32 of the offsets' size, it stays in cache where the offsets miss (the offsets
-  // check took 58% of the walk's time on dragon.obj, random rays).
+  // check took most of the walk's time on large meshes: docs/bench/history.md).
   std::vector<uint64_t> occupied_;
 };
 

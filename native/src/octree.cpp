@@ -40,7 +40,7 @@ struct Placement {
 // keeps its memory when it shrinks, so that two of them can swap roles level after level. Large
 // arrays ask Linux for transparent huge pages, as Embree's builders do: the deep levels of a big
 // octree write hundreds of megabytes once each, and with 4 KiB pages page faults and TLB misses
-// took about a quarter of the build time (measured on dragon.obj, max_depth 12, leaf_size 1).
+// took a large share of the build time (docs/bench/history.md).
 template <class T>
 class WorkArray {
  public:
@@ -101,7 +101,7 @@ uint32_t overlapped_octants(const TriangleMesh& mesh, uint32_t triangle, const B
 
 // The build classifies every reference at every level from the octree's corner rows (CornerRows):
 // reading them through the index array from the mesh's shared vertices cost two dependent cache
-// misses per reference (about a fifth of a depth-8 build on dragon.obj, by perf samples).
+// misses per reference (a large share of a deep build: docs/bench/history.md).
 uint32_t overlapped_octants(const CornerRows& t, const Bounds& box) {
   return triangle_octant_overlaps(box, box.center(), t.corner(0), t.corner(1), t.corner(2));
 }
@@ -219,8 +219,8 @@ void Octree::build() {
 
     // Before the deep levels, where a tree far over the budget spends its time: what the build would
     // hold at its peak, estimated from a systematic sample of this level's subtrees, counted without
-    // building them (dragon.obj at depth 16, leaf_size 1, was refused after 9.4 s and 2 GB; now in
-    // about a second). Where the sample's finished tree alone is over the budget, counting stops
+    // building them, so that a build far over the budget is refused early (docs/bench/history.md).
+    // Where the sample's finished tree alone is over the budget, counting stops
     // early: that decision does not depend on thread timing.
     // With max_depth auto the build never refuses: the checks below end it at the last level that fits.
     if (!estimated && !automatic_depth_ && level.size() >= kEstimateLevelNodes &&
@@ -239,8 +239,8 @@ void Octree::build() {
       });
       // The build's largest moment, level by level as in the checks below: the finished arrays while
       // they grow (old and new copy), the references of a level (with their octant bytes) and of the
-      // next, and both levels' pending nodes. On dragon.obj (leaf_size 1, depths 12 and 13) it comes
-      // within 5% of the largest check below; it refuses only past kEstimateMargin, so that the
+      // next, and both levels' pending nodes. It comes close to the largest check below
+      // (docs/bench/history.md); it refuses only past kEstimateMargin, so that the
       // sample's error does not refuse a build the checks would let through.
       double peak = counts.over_cap() ? limit + 1.0 : 0.0;
       double done = double(finished) + scale * double(counts.nodes[depth] * sizeof(OctreeNode));
@@ -428,7 +428,7 @@ std::vector<BoxInfo> Octree::boxes() const {
   // counted t; the walk finishes one subtree before the next). The ancestors are visited deepest
   // first: where one has already counted t, so have all above it (the earlier leaf lay under them
   // too), and the rest are skipped. A triangle's entries share a cache line. Walking each inner
-  // node's subtree again instead took 133 ms of a depth-8 octree on the dragon (112,730 boxes).
+  // node's subtree again instead was too slow for a deep octree (docs/bench/history.md).
   int deepest = 0;
   for (const BoxInfo& b : out) deepest = std::max(deepest, b.depth);
   const size_t n_triangles = mesh_->triangle_count();

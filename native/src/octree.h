@@ -52,8 +52,8 @@ static_assert(sizeof(CornerRows) == 48);
 
 // Octant i of a box: bit 0 selects the upper half in x, bit 1 in y, bit 2 in z. Build and traversal
 // both derive boxes with this one function, so octants share their splitting planes bit for bit and
-// tile their parent exactly. Always inlined: GCC kept it a call inside the walk, about 5% of an
-// octree's camera-ray time on dragon.obj.
+// tile their parent exactly. Always inlined: GCC kept it a call inside the walk, a cost the walk
+// felt (docs/bench/history.md).
 [[gnu::always_inline]] inline Bounds octant_bounds(const Bounds& box, int octant) {
   const glm::vec3 mid = box.center();
   Bounds b;
@@ -167,57 +167,12 @@ class Octree final : public StructureBase<Octree> {
 
   template <class Recorder>
   bool traverse_closest(const Ray& ray, Hit& hit, Recorder& record) const {
-    if (settings_.triangle_test != TriangleTest::Watertight)
-      return closest_over_leaves(
-          *mesh_, settings_.triangle_test, ray, hit, record,
-          [&](auto limit, auto visit) {
-            walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
-          },
-          Mailbox{});
-    record.ray();
-    const TriangleTester tester(ray, TriangleTest::Watertight);
-    const Watertight4Ray ray4(tester.watertight);
-    Hit best = initial_hit(ray);
-    bool found = false;
-    Mailbox mailbox;
-    walk(
-        ray, record, [&] { return best.t; },
-        [&](const OctreeNode& leaf) {
-          return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
-            alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-            const int mask = test_packets<false>(tester, ray4, packets, lanes, best.t, t, u, v);
-            found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
-            return false;
-          });
-        });
-    if (found) hit = best;
-    return found;
+    return traverse<true>(ray, &hit, record);
   }
 
   template <class Recorder>
   bool traverse_any(const Ray& ray, Recorder& record) const {
-    if (settings_.triangle_test != TriangleTest::Watertight)
-      return any_over_leaves(
-          *mesh_, settings_.triangle_test, ray, record,
-          [&](auto limit, auto visit) {
-            walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
-          },
-          Mailbox{});
-    record.ray();
-    const TriangleTester tester(ray, TriangleTest::Watertight);
-    const Watertight4Ray ray4(tester.watertight);
-    bool occluded = false;
-    Mailbox mailbox;
-    walk(
-        ray, record, [&] { return ray.tmax; },
-        [&](const OctreeNode& leaf) {
-          return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
-            alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
-            const int mask = test_packets<true>(tester, ray4, packets, lanes, tester.ray.tmax, t, u, v);
-            return occluded = record_any_lanes(packets, lanes, mask, record);
-          });
-        });
-    return occluded;
+    return traverse<false>(ray, nullptr, record);
   }
 
   // Every node in index order (parents before children). A leaf's triangle_count is its own; an
@@ -232,6 +187,42 @@ class Octree final : public StructureBase<Octree> {
   std::span<const uint32_t> leaf_triangles(uint32_t node) const { return triangles_of(nodes_[node]); }
 
  private:
+  // Both queries, one walk: the closest hit (kClosest, into *hit) or any hit before ray.tmax.
+  template <bool kClosest, class Recorder>
+  bool traverse(const Ray& ray, Hit* hit, Recorder& record) const {
+    if (settings_.triangle_test != TriangleTest::Watertight) {
+      const auto leaves = [&](auto limit, auto visit) {
+        walk(ray, record, limit, [&](const OctreeNode& leaf) { return visit(prefetched(triangles_of(leaf))); });
+      };
+      if constexpr (kClosest)
+        return closest_over_leaves(*mesh_, settings_.triangle_test, ray, *hit, record, leaves, Mailbox{});
+      else
+        return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, leaves, Mailbox{});
+    }
+    record.ray();
+    const TriangleTester tester(ray, TriangleTest::Watertight);
+    const Watertight4Ray ray4(tester.watertight);
+    Hit best = initial_hit(ray);
+    bool found = false;
+    Mailbox mailbox;
+    walk(
+        ray, record, [&] { return kClosest ? best.t : ray.tmax; },
+        [&](const OctreeNode& leaf) {
+          return for_packets(leaf, mailbox, [&](const TrianglePacket* packets, int lanes) {
+            alignas(32) float t[kLeafLanes], u[kLeafLanes], v[kLeafLanes];
+            const float limit = kClosest ? best.t : tester.ray.tmax;
+            const int mask = test_packets<!kClosest>(tester, ray4, packets, lanes, limit, t, u, v);
+            if constexpr (kClosest) {
+              found |= take_closest_lanes(packets, lanes, mask, t, u, v, record, best);
+              return false;
+            } else {
+              return found = record_any_lanes(packets, lanes, mask, record);
+            }
+          });
+        });
+    if (kClosest && found) *hit = best;
+    return found;
+  }
   std::span<const uint32_t> triangles_of(const OctreeNode& leaf) const {
     return {triangles_.data() + leaf.first, leaf.triangle_count()};
   }
@@ -320,8 +311,8 @@ class Octree final : public StructureBase<Octree> {
   }
 
   // Trivially constructible (glm vectors, not a Bounds with its empty-box initialiser): the walk's
-  // stack (then of 129 entries) was filled with empty boxes on every query, about a tenth of an octree's
-  // camera-ray time on dragon.obj.
+  // stack (then of 129 entries) was filled with empty boxes on every query, a cost the walk felt
+  // (docs/bench/history.md).
   struct StackEntry {
     glm::vec3 lo, hi;
     uint32_t node;

@@ -172,8 +172,8 @@ struct ShadePoint {
 // The pixels traced together: a block of up to kBlock x kBlock pixels of a tile, each of their samples'
 // camera rays one batch and their hits' shadow rays one batch per light. A cancel waits for at most one
 // such block per thread. The batch lists the block's pixels in sub-blocks of kPacketW x kPacketH, row by
-// row, so that each BVH packet (8 consecutive rays) covers 4 x 2 pixels. Measured against a tile row
-// of 64 pixels, one core (docs/bench/history.md): the goat head 1.03-1.09x, the dragon 1.03x faster.
+// row, so that each BVH packet (8 consecutive rays) covers 4 x 2 pixels: faster than a tile row of 64
+// pixels (docs/bench/history.md).
 constexpr int kBlock = 8;
 constexpr int kPacketW = 4, kPacketH = 2;
 

@@ -425,9 +425,11 @@ class RAYLAB_PT_comparison(bpy.types.Panel):
 CLASSES = (RAYLAB_OT_compare_structures, RAYLAB_PT_comparison)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     # Read-only (a getter only): the panel draws it as a progress bar.
     bpy.types.WindowManager.raylab_compare_progress = bpy.props.FloatProperty(
         name="Comparison Progress", subtype='PERCENTAGE', min=0.0, max=100.0, precision=0, get=_progress_percent,
@@ -436,5 +438,4 @@ def register():
 
 def unregister():
     del bpy.types.WindowManager.raylab_compare_progress
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

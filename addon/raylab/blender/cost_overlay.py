@@ -131,8 +131,8 @@ def cell_quads(counts, width, height, maximum, alpha=CELL_ALPHA):
 # --- the costliest objects -------------------------------------------------------------------------
 
 RANK_COUNTER = "triangle_tests"  # what the objects are ranked by
-RANK_CELLS = 48                  # cells across the camera's image: one ray each (a story costs some 25 us)
-RANK_BUDGET = 250_000            # triangle tests the stories of one ranking may record (some 0.1 s)
+RANK_CELLS = 48                  # cells across the camera's image: one ray each (a story is costly)
+RANK_BUDGET = 250_000            # triangle tests the stories of one ranking may record (docs/bench/history.md)
 
 
 class ObjectCosts:

@@ -236,13 +236,14 @@ def planned_scale_text(props):
 CLASSES = (RAYLAB_PG_passes, RAYLAB_PT_view_layer_passes)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.ViewLayer.raylab_passes = PointerProperty(type=RAYLAB_PG_passes)
 
 
 def unregister():
     del bpy.types.ViewLayer.raylab_passes
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

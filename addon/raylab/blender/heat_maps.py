@@ -295,9 +295,11 @@ CLASSES = (RAYLAB_OT_heat_maps, RAYLAB_PT_heat_maps)
 _handles = []
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     TASK_SECTIONS.append(draw_numbers)
     levels.LEAVING.append(close_picture)
     _handles.append(bpy.types.SpaceImageEditor.draw_handler_add(_draw_numbers_under_maps, (), 'WINDOW', 'POST_PIXEL'))
@@ -311,5 +313,4 @@ def unregister():
         TASK_SECTIONS.remove(draw_numbers)
     if close_picture in levels.LEAVING:
         levels.LEAVING.remove(close_picture)
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -158,12 +158,13 @@ CLASSES = (diagrams.RAYLAB_OT_level_show_diagram, RAYLAB_PT_levels, RAYLAB_PT_le
            RAYLAB_PT_level_mesh, RAYLAB_PT_level_list)
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
 
 
 def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()
     diagrams.release()

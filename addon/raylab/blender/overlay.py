@@ -105,8 +105,8 @@ def geometry_of(name, entry, settings):
     geometry = _geometry.get(name)
     if geometry is not None and geometry.key == key:
         return geometry
-    # The core filters, colours and lays out the lines (Structure.boxes(lines=True)): numpy took
-    # 140 ms for a depth-8 octree on the dragon.
+    # The core filters, colours and lays out the lines (Structure.boxes(lines=True)): numpy was too
+    # slow for a deep octree (docs/bench/history.md).
     lines = entry.structure.boxes(lines=True, depth_min=settings.depth_min, depth_max=settings.depth_max,
                                   leaves_only=settings.leaves_only, palette=box_palette(settings),
                                   fade=settings.fade, alpha_scale=alpha_scale(settings))

@@ -66,12 +66,15 @@ def _overlay_default(_file):
             scene.raylab.show = show
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((RAYLAB_AP_preferences,))
+
+
 def register():
-    bpy.utils.register_class(RAYLAB_AP_preferences)
+    _register_classes()
     bpy.app.handlers.load_post.append(_overlay_default)
 
 
 def unregister():
     if _overlay_default in bpy.app.handlers.load_post:
         bpy.app.handlers.load_post.remove(_overlay_default)
-    bpy.utils.unregister_class(RAYLAB_AP_preferences)
+    _unregister_classes()

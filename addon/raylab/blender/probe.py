@@ -439,9 +439,12 @@ def _on_load(_):
 _handles = []
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((RAYLAB_OT_probe_add,))
+
+
 def register():
     properties.features.probe_result = current_result
-    bpy.utils.register_class(RAYLAB_OT_probe_add)
+    _register_classes()
     _handles.append((bpy.types.SpaceView3D.draw_handler_add(_draw_view, (), 'WINDOW', 'POST_VIEW'), 'WINDOW'))
     _handles.append((bpy.types.SpaceView3D.draw_handler_add(_draw_text, (), 'WINDOW', 'POST_PIXEL'), 'WINDOW'))
     bpy.app.handlers.load_post.append(_on_load)
@@ -452,6 +455,6 @@ def unregister():
         bpy.types.SpaceView3D.draw_handler_remove(handle, region)
     _handles.clear()
     bpy.app.handlers.load_post.remove(_on_load)
-    bpy.utils.unregister_class(RAYLAB_OT_probe_add)
+    _unregister_classes()
     properties.features.probe_result = None
     _results.clear()

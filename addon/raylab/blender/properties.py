@@ -259,13 +259,16 @@ class RAYLAB_PG_render(structure_properties(drawable_only=False, structure=api.D
 GROUPS = {"raylab": RAYLAB_PG_scene, "raylab_render": RAYLAB_PG_render}
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(tuple(GROUPS.values()))
+
+
 def register():
+    _register_classes()
     for attribute, cls in GROUPS.items():
-        bpy.utils.register_class(cls)
         setattr(bpy.types.Scene, attribute, PointerProperty(type=cls))
 
 
 def unregister():
-    for attribute, cls in reversed(GROUPS.items()):
+    for attribute in reversed(GROUPS):
         delattr(bpy.types.Scene, attribute)
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -58,8 +58,8 @@ def _store_last_render(scene_name, record):
 #     (_flush_last_renders) then waits, letting go of the interpreter, until render() has begun (or the
 #     render ended, or _PARK_SECONDS passed). Blender calls update_render_passes() and render() meanwhile.
 #  2. render() puts Python's own interval back as it begins: the engine's export and numpy never hold the
-#     main loop for long (with 10 s throughout, the main thread waited up to 10 s for the interpreter
-#     whenever the job thread took it back first: F12 on the AABB 2 level held the main loop 13.8 s).
+#     main loop for long (with 10 s throughout, the main thread waited for the interpreter whenever
+#     the job thread took it back first, and F12 held the main loop: docs/bench/history.md).
 #  3. When render() ends, it raises the interval and parks the main thread again before it returns, for
 #     what Blender does after it (another view layer's render(), the compositor's update_render_passes());
 #     render_post (job thread) lets the main thread go, and the timer ends the guard once the job is over.
@@ -279,9 +279,11 @@ def _shared_panels():
                                    if hasattr(bpy.types, name)]
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.add('RAYLAB')
     bpy.app.timers.register(_flush_last_renders, persistent=True)
@@ -302,5 +304,4 @@ def unregister():
     _release_render_guard()
     for panel in _shared_panels():
         panel.COMPAT_ENGINES.discard('RAYLAB')
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

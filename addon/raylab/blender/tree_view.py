@@ -754,9 +754,11 @@ _handles = []
 _keymaps = []
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
+
+
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.Scene.raylab_tree = PointerProperty(type=TreeSettings)
     overlay.DIMMERS.append(dimming)
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_picked_boxes, (), 'WINDOW', 'POST_VIEW'))
@@ -785,7 +787,6 @@ def unregister():
     if dimming in overlay.DIMMERS:
         overlay.DIMMERS.remove(dimming)
     del bpy.types.Scene.raylab_tree
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()
     _trees.clear()
     _shown.clear()

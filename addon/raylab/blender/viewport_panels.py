@@ -255,18 +255,18 @@ def last_render_in_tasks(layout, context):
 CLASSES = (RAYLAB_PT_structure, RAYLAB_PT_probe, RAYLAB_PT_cost, RAYLAB_PT_last_render)
 
 
-_register, _unregister = bpy.utils.register_classes_factory(CLASSES)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(CLASSES)
 
 
 def register():
-    _register()
+    _register_classes()
     level_panels.TASK_SECTIONS.append(last_render_in_tasks)
 
 
 def unregister():
     if last_render_in_tasks in level_panels.TASK_SECTIONS:
         level_panels.TASK_SECTIONS.remove(last_render_in_tasks)
-    _unregister()
+    _unregister_classes()
     if _icons:
         import bpy.utils.previews
         bpy.utils.previews.remove(_icons.pop())

@@ -1,6 +1,6 @@
 // A structure's boxes as line geometry ready for the GPU: the overlay's arrays, made in the core so
-// that the add-on only hands them to a batch (the viewport goal: a depth-8 octree on the dragon
-// built and drawn within 100 ms; numpy spent 140 ms on these arrays alone).
+// that the add-on only hands them to a batch (a deep octree must be built and drawn at the viewport's
+// pace, which numpy alone missed on these arrays: docs/bench/history.md).
 #pragma once
 
 #include "raylab/structure.h"
@@ -43,8 +43,8 @@ inline constexpr uint32_t kBoxEdges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0
 std::vector<uint32_t> selected_boxes(std::span<const BoxInfo> boxes, const BoxLineOptions& options);
 
 // The selected boxes' lines, written straight into the caller's arrays (the bindings' numpy arrays:
-// writing 36 MB for a depth-8 octree on the dragon into vectors and copying them again cost as much as
-// the writing): 8 corners and their 8 colours per box, 12 edges as pairs of corner indices.
+// writing them into vectors and copying them again cost as much as the writing, docs/bench/history.md):
+// 8 corners and their 8 colours per box, 12 edges as pairs of corner indices.
 // positions, colors: 8 * selected.size(); indices: 12 * selected.size().
 void write_box_lines(std::span<const BoxInfo> boxes, std::span<const uint32_t> selected, const BoxLineOptions& options,
                      std::span<glm::vec3> positions, std::span<glm::vec4> colors, std::span<glm::uvec2> indices);

@@ -13,8 +13,8 @@ namespace raylab {
 void* allocate_huge(size_t bytes);
 
 // Large arrays a build writes once (trivial types, left uninitialised), on transparent huge pages
-// where the kernel allows it: a build touches every page once, and 4 KiB page faults cost a fifth
-// of it.
+// where the kernel allows it: a build touches every page once, and 4 KiB page faults cost a large
+// share of it (docs/bench/history.md).
 struct FreeDeleter {
   void operator()(void* p) const { std::free(p); }
 };

@@ -249,8 +249,11 @@ class RAYLAB_OT_level_leak_test(bpy.types.Operator):
 _handles = []
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory((RAYLAB_OT_level_leak_test,))
+
+
 def register():
-    bpy.utils.register_class(RAYLAB_OT_level_leak_test)
+    _register_classes()
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw, (), 'WINDOW', 'POST_VIEW'))
     _handles.append(bpy.types.SpaceView3D.draw_handler_add(_draw_price_chart, (), 'WINDOW', 'POST_PIXEL'))
     level_panels.TASK_SECTIONS.append(draw_results)
@@ -263,4 +266,4 @@ def unregister():
     for handle in _handles:
         bpy.types.SpaceView3D.draw_handler_remove(handle, 'WINDOW')
     _handles.clear()
-    bpy.utils.unregister_class(RAYLAB_OT_level_leak_test)
+    _unregister_classes()

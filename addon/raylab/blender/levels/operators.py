@@ -113,11 +113,4 @@ CLASSES = (RAYLAB_OT_level_open, RAYLAB_OT_level_next, RAYLAB_OT_level_previous,
            RAYLAB_MT_level_swap_mesh)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)
