@@ -332,8 +332,23 @@ void Bvh::closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCo
   if (!per_ray.empty() && per_ray.size() != rays.size())
     throw std::invalid_argument("per_ray and rays differ in length");
   if (!closest_packets()) {  // one ray at a time, with no coherence tests
-    if (per_ray.empty()) Structure::closest_batch(rays, hits);
-    else Structure::closest_batch_counted(rays, hits, per_ray);
+    if (!per_ray.empty()) Structure::closest_batch_counted(rays, hits, per_ray);
+    else if (width_ != 8 || node_count() == 0) Structure::closest_batch(rays, hits);
+    else
+      // Each run of eight rays first meets the root box lane-wise, as a packet does: a ray that misses
+      // it (and so every child) gets no hit without its walk (the single walk tests the root's
+      // children instead, eight boxes).
+      for (size_t i = 0; i < rays.size(); i += kPacketSize) {
+        const int n = int(std::min<size_t>(kPacketSize, rays.size() - i));
+        const uint32_t entering = settings_.contract == Contract::Fast
+                                      ? rays_entering_fast(&rays[i], n, root_bounds_)
+                                      : rays_entering(&rays[i], n, root_bounds_);
+        for (int r = 0; r < n; ++r) {
+          Hit h;
+          if ((entering >> r) & 1) closest(rays[i + r], h);
+          hits[i + r] = h;
+        }
+      }
     if (counts) counts->single_rays += rays.size();
     return;
   }

@@ -303,6 +303,16 @@ RAYLAB_AVX2 inline uint32_t rays_entering(const Ray* rays, int n, const Bounds& 
   return packet_root_exact(root, lanes, tmax, (1u << n) - 1);
 }
 
+// The same with the fast contract's box test (fast_box8's operations on FastBoxRay's lanes).
+RAYLAB_AVX2_FMA inline uint32_t rays_entering_fast(const Ray* rays, int n, const Bounds& root) {
+  PacketLanes lanes;
+  glm::vec3 direction[8];
+  fill_lanes8<true>(rays, n, root, lanes, direction);
+  alignas(32) float tmax[8];
+  for (int r = 0; r < 8; ++r) tmax[r] = rays[r < n ? r : 0].tmax;
+  return packet_root_fast(root, lanes, tmax, (1u << n) - 1);
+}
+
 // Traces rays[0..n) (1 <= n <= kPacketSize) and writes out[r] (found / occluded) and, closest, hits[r]
 // where found. Returns the rays that left the packet (kSameOrder) and finished alone.
 // Counted (kCount), every ray records what its recorded single walk records: its query, the root box

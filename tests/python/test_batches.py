@@ -12,9 +12,10 @@ from conftest import load
 from test_scene import rotate_z, translate
 
 FIELDS = ("t", "u", "v", "triangle", "instance", "hit")
-# Every structure in the exact contract, and the fast contract where a structure takes it.
-SETTINGS = [(s, c) for s in raylab.STRUCTURES for c in raylab.CONTRACTS
-            if c == "exact" or raylab.STRUCTURE_INFO[s]["uses_contract"]]
+# Every structure in the exact contract with each triangle test, and the fast contract where a structure
+# takes it (its own triangle test).
+SETTINGS = [(s, c, t) for s in raylab.STRUCTURES for c in raylab.CONTRACTS for t in raylab.TRIANGLE_TESTS
+            if (c == "exact" or raylab.STRUCTURE_INFO[s]["uses_contract"]) and (c == "exact" or t == "watertight")]
 
 
 def camera_batches(vertices):
@@ -40,10 +41,10 @@ def same_hits(alone, batch):
         assert a.dtype == b.dtype and np.array_equal(a.view(np.uint8), b.view(np.uint8)), field
 
 
-@pytest.mark.parametrize("structure, contract", SETTINGS)
-def test_a_structures_batch_answers_as_each_ray_alone(structure, contract):
+@pytest.mark.parametrize("structure, contract, triangle_test", SETTINGS)
+def test_a_structures_batch_answers_as_each_ray_alone(structure, contract, triangle_test):
     bunny = load("bunny")
-    s = raylab.build(*bunny, structure=structure, contract=contract)
+    s = raylab.build(*bunny, structure=structure, contract=contract, triangle_test=triangle_test)
     for origins, directions, tmin, tmax in camera_batches(bunny[0]):
         same_hits(s.intersect(origins, directions, tmin, tmax, count=True),
                   s.intersect(origins, directions, tmin, tmax))
@@ -51,10 +52,10 @@ def test_a_structures_batch_answers_as_each_ray_alone(structure, contract):
         assert np.array_equal(alone, s.occluded(origins, directions, tmin, tmax).hit)
 
 
-@pytest.mark.parametrize("structure, contract", SETTINGS)
-def test_a_scenes_batch_answers_as_each_ray_alone(structure, contract):
+@pytest.mark.parametrize("structure, contract, triangle_test", SETTINGS)
+def test_a_scenes_batch_answers_as_each_ray_alone(structure, contract, triangle_test):
     bunny = load("bunny")
-    scene = raylab.Scene(structure=structure, contract=contract)
+    scene = raylab.Scene(structure=structure, contract=contract, triangle_test=triangle_test)
     mesh = scene.add_mesh(*bunny)
     scene.add_instance(mesh, np.eye(4))
     scene.add_instance(mesh, translate(0.3, 0.1, scale=0.5) @ rotate_z(30))
