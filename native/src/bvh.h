@@ -97,9 +97,8 @@ class Bvh final : public StructureBase<Bvh> {
                  std::span<TraversalStats> per_ray = {}) const;
   // Whether closest_batch traces packets: only where every ray may take the packet's order (the
   // exact contract's watertight test). Elsewhere (the fast contract, Möller–Trumbore) a packet keeps
-  // each ray on its own order, and so many rays leave it to finish alone (camera rays 5 %, shadow rays
-  // 40 % on bunny_hr and dragon) that the packets measured slower than single rays; any_batch always
-  // traces packets.
+  // each ray on its own order, and so many rays leave it to finish alone that the packets ran slower
+  // than single rays (docs/bench/history.md); any_batch always traces packets.
   bool closest_packets() const {
     return settings_.contract == Contract::Exact && settings_.triangle_test == TriangleTest::Watertight;
   }
@@ -286,8 +285,8 @@ class Bvh final : public StructureBase<Bvh> {
   // so the 8-box test is too. Flattened: GCC will not inline an AVX2 kernel into the default-target
   // templates that call it (traverse_wide, packet_walk), only into this function once they are inlined,
   // so without `flatten` LTO's heuristics decided it. When the counted packets added call sites they
-  // moved the packet node test and the per-ray setup out of line, and the any-hit packets ran up to
-  // 1.34x slower (docs/bench/history.md). The packet walks (bvh_packets.h) are flattened alike.
+  // moved the packet node test and the per-ray setup out of line, and the any-hit packets ran slower
+  // (docs/bench/history.md). The packet walks (bvh_packets.h) are flattened alike.
   template <bool kClosest, class Recorder>
   RAYLAB_AVX2 [[gnu::flatten]] bool traverse8(const Ray& ray, Hit* hit, Recorder& record) const {
     return traverse_wide<Avx8, kClosest>(ray, hit, record);
@@ -388,7 +387,7 @@ class Bvh final : public StructureBase<Bvh> {
   template <class Recorder>
   void record_node(const Entry& e, Recorder& record) const {
     // A leaf's id is a search (leaf_id): only for a recorder that reads it (a story). Counting alone
-    // skips it: it took 13 % of a counted render's samples on the dragon (docs/bench/history.md).
+    // skips it: it was a large part of a counted render's samples (docs/bench/history.md).
     if constexpr (Recorder::kActive) record.node(Recorder::kIds && e.count != 0 ? leaf_id(e.ref) : e.ref, e.depth);
   }
 
@@ -455,7 +454,7 @@ class Bvh final : public StructureBase<Bvh> {
   // prefetches back the walk is faster on large meshes (docs/bench/history.md).
   // A leaf is loaded whole, up to the two packets the 8-lane test reads first (160 bytes each, 16-byte
   // aligned: up to six cache lines). Prefetching only its first two lines left the 8-lane test
-  // waiting on its second packet: that load took 47 % of the leaf test's samples on the dragon.
+  // waiting on its second packet (docs/bench/history.md).
   template <class Width>
   [[gnu::always_inline]] void prefetch(const Entry& e) const {
     if (e.count != 0) {
