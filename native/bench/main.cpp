@@ -531,15 +531,12 @@ Json packets_agreement_json(const EmbreeTracer& embree, const std::vector<Ray>& 
   for (size_t i = 0; i < rays.size(); ++i) {
     const Hit &a = single[i], &b = packed[i];
     const char* kind = nullptr;
-    if (a.valid() != b.valid())
-      ++hit_or_miss, kind = "hit_or_miss";
+    if (a.valid() != b.valid()) ++hit_or_miss, kind = "hit_or_miss";
     else if (!a.valid() ||
              (a.triangle == b.triangle && bits(a.t) == bits(b.t) && bits(a.u) == bits(b.u) && bits(a.v) == bits(b.v)))
       ++same;
-    else if (a.triangle == b.triangle)
-      ++rounding, kind = "rounding";
-    else
-      ++other_triangle, kind = "other_triangle";
+    else if (a.triangle == b.triangle) ++rounding, kind = "rounding";
+    else ++other_triangle, kind = "other_triangle";
     if (single_any[i] != packed_any[i]) {
       ++any_differs;
       if (!kind) kind = "occluded";
@@ -557,8 +554,8 @@ Json packets_agreement_json(const EmbreeTracer& embree, const std::vector<Ray>& 
     }
   }
   return {{"rays", rays.size()},
-          {"closest", {{"same", same}, {"rounding", rounding}, {"other_triangle", other_triangle},
-                       {"hit_or_miss", hit_or_miss}}},
+          {"closest",
+           {{"same", same}, {"rounding", rounding}, {"other_triangle", other_triangle}, {"hit_or_miss", hit_or_miss}}},
           {"any", {{"same", rays.size() - any_differs}, {"differs", any_differs}}},
           {"examples", std::move(examples)}};
 }

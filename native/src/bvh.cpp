@@ -340,9 +340,8 @@ void Bvh::closest_batch(std::span<const Ray> rays, std::span<Hit> hits, PacketCo
       // children instead, eight boxes).
       for (size_t i = 0; i < rays.size(); i += kPacketSize) {
         const int n = int(std::min<size_t>(kPacketSize, rays.size() - i));
-        const uint32_t entering = settings_.contract == Contract::Fast
-                                      ? rays_entering_fast(&rays[i], n, root_bounds_)
-                                      : rays_entering(&rays[i], n, root_bounds_);
+        const uint32_t entering = settings_.contract == Contract::Fast ? rays_entering_fast(&rays[i], n, root_bounds_)
+                                                                       : rays_entering(&rays[i], n, root_bounds_);
         for (int r = 0; r < n; ++r) {
           Hit h;
           if ((entering >> r) & 1) closest(rays[i + r], h);

@@ -144,13 +144,14 @@ class Bvh final : public StructureBase<Bvh> {
         const auto dot = [](__m128 ax, __m128 ay, __m128 az, __m128 bx, __m128 by, __m128 bz) {
           return _mm_add_ps(_mm_add_ps(_mm_mul_ps(ax, bx), _mm_mul_ps(ay, by)), _mm_mul_ps(az, bz));
         };
-        const __m128 cos_d = dot(_mm_set1_ps(direction.x), _mm_set1_ps(direction.y), _mm_set1_ps(direction.z), d[0],
-                                 d[1], d[2]);
+        const __m128 cos_d =
+            dot(_mm_set1_ps(direction.x), _mm_set1_ps(direction.y), _mm_set1_ps(direction.z), d[0], d[1], d[2]);
         const __m128 ox = _mm_sub_ps(o[0], _mm_set1_ps(origin.x)), oy = _mm_sub_ps(o[1], _mm_set1_ps(origin.y)),
                      oz = _mm_sub_ps(o[2], _mm_set1_ps(origin.z));
-        const __m128 in_cone = _mm_and_ps(
-            _mm_cmpgt_ps(cos_d, _mm_setzero_ps()),
-            _mm_cmpge_ps(_mm_mul_ps(cos_d, cos_d), _mm_mul_ps(_mm_set1_ps(cone), dot(d[0], d[1], d[2], d[0], d[1], d[2]))));
+        const __m128 in_cone =
+            _mm_and_ps(_mm_cmpgt_ps(cos_d, _mm_setzero_ps()),
+                       _mm_cmpge_ps(_mm_mul_ps(cos_d, cos_d),
+                                    _mm_mul_ps(_mm_set1_ps(cone), dot(d[0], d[1], d[2], d[0], d[1], d[2]))));
         const __m128 near = _mm_cmple_ps(dot(ox, oy, oz, ox, oy, oz), _mm_set1_ps(origin_limit));
         mask |= uint32_t(_mm_movemask_ps(_mm_and_ps(in_cone, near))) << (4 * half);
       }

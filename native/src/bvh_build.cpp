@@ -452,8 +452,8 @@ class Builder {
   }
 
   // The binned SAH's split (every split, swept by centroid, for nodes of kObjectSweepMax or fewer).
-  uint32_t sah_split(const RangeInfo& info, const Binning& binning, uint32_t begin, uint32_t end,
-                     RangeInfo& left_info, RangeInfo& right_info, Choice* why) {
+  uint32_t sah_split(const RangeInfo& info, const Binning& binning, uint32_t begin, uint32_t end, RangeInfo& left_info,
+                     RangeInfo& right_info, Choice* why) {
     const uint32_t n = end - begin;
     if (n <= kObjectSweepMax) return sweep_objects(info, begin, end, left_info, right_info, why);
 

@@ -196,8 +196,7 @@ class Octree final : public StructureBase<Octree> {
       };
       if constexpr (kClosest)
         return closest_over_leaves(*mesh_, settings_.triangle_test, ray, *hit, record, leaves, Mailbox{});
-      else
-        return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, leaves, Mailbox{});
+      else return any_over_leaves(*mesh_, settings_.triangle_test, ray, record, leaves, Mailbox{});
     }
     record.ray();
     const TriangleTester tester(ray, TriangleTest::Watertight);

@@ -15,8 +15,6 @@ from .report import animation_markdown, api_markdown, builders_markdown, markdow
 from .run import bench_binary, run_blender, run_native
 
 
-
-
 # The experiments --only runs alone: how each is measured and how it is reported. `api` (alias `door`, its
 # first part) runs raylab_bench first, for its rays and Embree's times.
 ONLY = {"animation": (run_animation, animation_markdown), "builders": (run_builders, builders_markdown),

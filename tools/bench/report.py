@@ -151,7 +151,8 @@ def api_summary_lines(api):
         by = {(r["target"], r["contract"], r["rays"], r["query"]): r for r in mesh["rows"]}
         for target in ("Structure", "Scene"):
             get = lambda c, s, k: by[(target, c, s, "intersect")][k]  # noqa: E731
-            hits = f"{100 * get('exact', 'camera', 'hit_share'):.0f} / {100 * get('exact', 'camera_sky', 'hit_share'):.0f}"
+            shares = [100 * get("exact", s, "hit_share") for s in ("camera", "camera_sky")]
+            hits = f"{shares[0]:.0f} / {shares[1]:.0f}"
             cells = [get("exact", s, "ratio_to_embree_1") for s in ("camera", "camera_sky", "random")]
             cells += [get("exact", s, "ratio_to_embree_8") for s in ("camera", "camera_sky")]
             cells += [get("fast", s, "ratio_to_embree_8") for s in ("camera", "camera_sky")]
@@ -221,9 +222,10 @@ def render_markdown(render):
     lines = ["## F12's renderer against the baseline's", "",
              f"`raylab.render` on one thread, one core pinned, against the renderer of `{render['baseline']}`: "
              f"each render in its own process, the two alternating ({render['rounds']} rounds; renders per "
-             "process: " + ", ".join(f"{k} {v}" for k, v in render["renders_per_process"].items()) + "), medians; speed-up = the baseline's seconds / this "
-             "checkout's (above 1: faster), by the renderer's own timer and by process CPU time. Exact contract, "
-             "one point light with shadows, recursion 3.", "",
+             "process: " + ", ".join(f"{k} {v}" for k, v in render["renders_per_process"].items())
+             + "), medians; speed-up = the baseline's seconds / this checkout's (above 1: faster), by the "
+             "renderer's own timer and by process CPU time. Exact contract, one point light with shadows, "
+             "recursion 3.", "",
              "| scene | pixels | super sampling | baseline s | this s | speed-up | CPU-time speed-up |",
              "|---|---|---|---|---|---|---|"]
     for r in render["rows"]:
