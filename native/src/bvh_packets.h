@@ -291,26 +291,25 @@ RAYLAB_AVX2 inline void fill_lanes8(const Ray* rays, int n, const Bounds& root, 
 }
 
 // The rays among rays[0..n) (1 <= n <= 8) whose own box test of `root` (intersect_box with
-// BoxRay(ray, root), within [tmin, tmax]) hits it: bit r for ray r, the lanes computing what each
-// ray's test computes. The scene's batches let a group of rays that all miss its top level go with
-// one test per eight rays. Needs AVX2 (cpu_has_avx2).
-RAYLAB_AVX2 inline uint32_t rays_entering(const Ray* rays, int n, const Bounds& root) {
+// BoxRay(ray, root), within [tmin, tmax]; kFast: fast_box8's on FastBoxRay) hits it: bit r for ray r,
+// the lanes computing what each ray's test computes. The scene's batches let a group of rays that all
+// miss its top level go with one test per eight rays, and the BVH's closest hits without packets a ray
+// that misses the root. Needs AVX2 (cpu_has_avx2; kFast also FMA): instanced by the two below.
+template <bool kFast>
+[[gnu::always_inline]] inline uint32_t lanes_entering(const Ray* rays, int n, const Bounds& root) {
   PacketLanes lanes;
   glm::vec3 direction[8];
-  fill_lanes8<false>(rays, n, root, lanes, direction);
+  fill_lanes8<kFast>(rays, n, root, lanes, direction);
   alignas(32) float tmax[8];
   for (int r = 0; r < 8; ++r) tmax[r] = rays[r < n ? r : 0].tmax;
-  return packet_root_exact(root, lanes, tmax, (1u << n) - 1);
+  if constexpr (kFast) return packet_root_fast(root, lanes, tmax, (1u << n) - 1);
+  else return packet_root_exact(root, lanes, tmax, (1u << n) - 1);
 }
-
-// The same with the fast contract's box test (fast_box8's operations on FastBoxRay's lanes).
-RAYLAB_AVX2_FMA inline uint32_t rays_entering_fast(const Ray* rays, int n, const Bounds& root) {
-  PacketLanes lanes;
-  glm::vec3 direction[8];
-  fill_lanes8<true>(rays, n, root, lanes, direction);
-  alignas(32) float tmax[8];
-  for (int r = 0; r < 8; ++r) tmax[r] = rays[r < n ? r : 0].tmax;
-  return packet_root_fast(root, lanes, tmax, (1u << n) - 1);
+RAYLAB_AVX2 [[gnu::flatten]] inline uint32_t rays_entering(const Ray* rays, int n, const Bounds& root) {
+  return lanes_entering<false>(rays, n, root);
+}
+RAYLAB_AVX2_FMA [[gnu::flatten]] inline uint32_t rays_entering_fast(const Ray* rays, int n, const Bounds& root) {
+  return lanes_entering<true>(rays, n, root);
 }
 
 // Traces rays[0..n) (1 <= n <= kPacketSize) and writes out[r] (found / occluded) and, closest, hits[r]
