@@ -26,17 +26,11 @@ struct RayRows {
 
   const float* origin(size_t i) const { return origins + origin_stride * i; }
   const float* direction(size_t i) const { return directions + direction_stride * i; }
-  // What a query accepts: finite coordinates and a direction that is not zero. x * 0 is 0 for a
-  // finite x and NaN for an infinite or NaN one: one comparison for the six, no branch per value.
-  bool usable(size_t i) const {
-    const float *o = origin(i), *d = direction(i);
-    const float zeros = (o[0] * 0.0f + o[1] * 0.0f) + (o[2] * 0.0f + d[0] * 0.0f) + (d[1] * 0.0f + d[2] * 0.0f);
-    return zeros == 0.0f && (d[0] != 0.0f || d[1] != 0.0f || d[2] != 0.0f);
-  }
-  // Whether every ray of [first, last) is usable, as usable() says, in loops the compiler vectorizes
-  // (a float is NaN or infinite exactly when its exponent bits are all ones): the door's check costs a
-  // ray a few instructions.
+  // What a query accepts: finite coordinates and a direction that is not zero. usable_range checks a
+  // run of rays in loops the compiler vectorizes (a float is NaN or infinite exactly when its exponent
+  // bits are all ones): the door's check costs a ray a few instructions; usable(i) is its run of one.
   bool usable_range(size_t first, size_t last) const;
+  bool usable(size_t i) const { return usable_range(i, i + 1); }
   Ray ray(size_t i) const {
     const float *o = origin(i), *d = direction(i);
     Ray r;
